@@ -1,0 +1,73 @@
+//! Wavefront OBJ: `v x y z` and `f a b c ...` (1-based, negative relative, `a/t/n` forms).
+//! Polygons are fan-triangulated; other records are ignored.
+
+use super::{FormatError, parse_f64, text};
+use crate::mesh::TriMesh;
+use nalgebra::Point3;
+use std::fmt::Write;
+
+const F: &str = "OBJ";
+
+pub fn read_obj(bytes: &[u8]) -> Result<TriMesh, FormatError> {
+    let src = text(bytes);
+    let mut positions = Vec::new();
+    let mut faces = Vec::new();
+    for (i, line) in src.lines().enumerate() {
+        let ln = i + 1;
+        let mut toks = line.split_whitespace();
+        match toks.next() {
+            Some("v") => {
+                let x = parse_f64(F, ln, toks.next(), "vertex x")?;
+                let y = parse_f64(F, ln, toks.next(), "vertex y")?;
+                let z = parse_f64(F, ln, toks.next(), "vertex z")?;
+                positions.push(Point3::new(x, y, z));
+            }
+            Some("f") => {
+                let mut poly = Vec::new();
+                for tok in toks {
+                    let idx = tok.split('/').next().unwrap_or("");
+                    let k: i64 = idx.parse().map_err(|_| {
+                        FormatError::at_line(
+                            F,
+                            ln,
+                            format!("face index '{tok}'; expected an integer"),
+                        )
+                    })?;
+                    let n = positions.len() as i64;
+                    let v = if k > 0 { k - 1 } else { n + k };
+                    if k == 0 || v < 0 || v >= n {
+                        return Err(FormatError::at_line(
+                            F,
+                            ln,
+                            format!("face index {k} refers to no vertex ({n} defined so far)"),
+                        ));
+                    }
+                    poly.push(v as u32);
+                }
+                if poly.len() < 3 {
+                    return Err(FormatError::at_line(
+                        F,
+                        ln,
+                        format!("face has {} vertices; expected at least 3", poly.len()),
+                    ));
+                }
+                for k in 1..poly.len() - 1 {
+                    faces.push([poly[0], poly[k], poly[k + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(TriMesh::new(positions, faces))
+}
+
+pub fn write_obj(mesh: &TriMesh) -> Vec<u8> {
+    let mut s = String::from("# waamtwin mesh, mm\n");
+    for p in &mesh.positions {
+        let _ = writeln!(s, "v {:e} {:e} {:e}", p.x, p.y, p.z);
+    }
+    for f in &mesh.faces {
+        let _ = writeln!(s, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1);
+    }
+    s.into_bytes()
+}

@@ -1,0 +1,193 @@
+//! The part library: exact shapes meshed as mid-surfaces at a requested edge length.
+//!
+//! Every shape stands on z = 0 with its lower boundary there (the substrate), except where its
+//! doc says otherwise. Lengths in mm.
+
+mod rings;
+
+use crate::mesh::TriMesh;
+use nalgebra::Point3;
+use rings::RingSurface;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shape {
+    /// Open cylinder of radius R and height H.
+    Cylinder { radius_mm: f64, height_mm: f64 },
+    /// Open cone frustum from `radius_mm` at z = 0 to `top_radius_mm` at z = H.
+    ConeFrustum {
+        radius_mm: f64,
+        top_radius_mm: f64,
+        height_mm: f64,
+    },
+    /// Open vase: r(z) = R + bulge·sin(π z / H), upper boundary
+    /// z_top(θ) = H + slope·cos θ + wave·sin(waves·θ) (sloped and sinusoidal, non-planar).
+    Vase {
+        radius_mm: f64,
+        height_mm: f64,
+        bulge_mm: f64,
+        top_slope_mm: f64,
+        top_wave_mm: f64,
+        top_waves: u32,
+    },
+    /// Closed hemisphere of radius R on z = 0.
+    Hemisphere { radius_mm: f64 },
+    /// Closed dome symmetric about the xz plane only: a half ellipsoid of base radius R and height
+    /// H whose upper part leans towards −x by `lean_mm`·(z/H)², which changes the curvature on one
+    /// side (the CTPP paper's closed part, Fig. 23, is of this kind).
+    AsymmetricDome {
+        radius_mm: f64,
+        height_mm: f64,
+        lean_mm: f64,
+    },
+    /// Quarter torus tube: x = (R + r cos v) cos u − R, y = r sin v, z = (R + r cos v) sin u,
+    /// u ∈ [0, π/2]. Lower boundary the circle of radius r at z = 0, upper one at x = −R.
+    QuarterTorus {
+        bend_radius_mm: f64,
+        tube_radius_mm: f64,
+    },
+    /// Flat closed disk of radius R at z = 0 (a test surface: one boundary loop, no curvature).
+    Disk { radius_mm: f64 },
+}
+
+impl Shape {
+    /// The library's names, as scenario files spell them.
+    pub const NAMES: [&'static str; 7] = [
+        "cylinder",
+        "cone_frustum",
+        "vase",
+        "hemisphere",
+        "asymmetric_dome",
+        "quarter_torus",
+        "disk",
+    ];
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Shape::Cylinder { .. } => "cylinder",
+            Shape::ConeFrustum { .. } => "cone_frustum",
+            Shape::Vase { .. } => "vase",
+            Shape::Hemisphere { .. } => "hemisphere",
+            Shape::AsymmetricDome { .. } => "asymmetric_dome",
+            Shape::QuarterTorus { .. } => "quarter_torus",
+            Shape::Disk { .. } => "disk",
+        }
+    }
+
+    /// Mesh the mid-surface with edges of about `edge_mm`.
+    pub fn mesh(&self, edge_mm: f64) -> TriMesh {
+        match *self {
+            Shape::Cylinder {
+                radius_mm: r,
+                height_mm: h,
+            } => ring_mesh(
+                move |th, t| Point3::new(r * th.cos(), r * th.sin(), h * t),
+                false,
+                edge_mm,
+            ),
+            Shape::ConeFrustum {
+                radius_mm: r0,
+                top_radius_mm: r1,
+                height_mm: h,
+            } => ring_mesh(
+                move |th, t| {
+                    let r = r0 + (r1 - r0) * t;
+                    Point3::new(r * th.cos(), r * th.sin(), h * t)
+                },
+                false,
+                edge_mm,
+            ),
+            Shape::Vase {
+                radius_mm,
+                height_mm,
+                bulge_mm,
+                top_slope_mm,
+                top_wave_mm,
+                top_waves,
+            } => {
+                let top = move |th: f64| {
+                    height_mm
+                        + top_slope_mm * th.cos()
+                        + top_wave_mm * (top_waves as f64 * th).sin()
+                };
+                ring_mesh(
+                    move |th, t| {
+                        let z = t * top(th);
+                        let r = radius_mm + bulge_mm * (PI * z / height_mm).sin();
+                        Point3::new(r * th.cos(), r * th.sin(), z)
+                    },
+                    false,
+                    edge_mm,
+                )
+            }
+            Shape::Hemisphere { radius_mm: r } => ring_mesh(
+                move |th, t| {
+                    let phi = FRAC_PI_2 * (1.0 - t);
+                    Point3::new(
+                        r * phi.sin() * th.cos(),
+                        r * phi.sin() * th.sin(),
+                        r * phi.cos(),
+                    )
+                },
+                true,
+                edge_mm,
+            ),
+            Shape::AsymmetricDome {
+                radius_mm: r,
+                height_mm: h,
+                lean_mm,
+            } => ring_mesh(
+                move |th, t| {
+                    let phi = FRAC_PI_2 * (1.0 - t);
+                    let z = h * phi.cos();
+                    let x = r * phi.sin() * th.cos() - lean_mm * (z / h).powi(2);
+                    Point3::new(x, r * phi.sin() * th.sin(), z)
+                },
+                true,
+                edge_mm,
+            ),
+            Shape::QuarterTorus {
+                bend_radius_mm: big,
+                tube_radius_mm: small,
+            } => ring_mesh(
+                move |v, t| {
+                    let u = FRAC_PI_2 * t;
+                    let rho = big + small * v.cos();
+                    Point3::new(rho * u.cos() - big, small * v.sin(), rho * u.sin())
+                },
+                false,
+                edge_mm,
+            ),
+            Shape::Disk { radius_mm: r } => ring_mesh(
+                move |th, t| Point3::new(r * (1.0 - t) * th.cos(), r * (1.0 - t) * th.sin(), 0.0),
+                true,
+                edge_mm,
+            ),
+        }
+    }
+}
+
+fn ring_mesh(map: impl Fn(f64, f64) -> Point3<f64>, closed_top: bool, edge_mm: f64) -> TriMesh {
+    RingSurface { map, closed_top }.mesh(edge_mm)
+}
+
+/// A structured grid on an open tube: `around` × `up` vertices (the geodesic benchmark mesh).
+pub fn tube_grid(radius_mm: f64, height_mm: f64, around: usize, up: usize) -> TriMesh {
+    let mut positions = Vec::with_capacity(around * up);
+    for j in 0..up {
+        let z = height_mm * j as f64 / (up - 1) as f64;
+        for i in 0..around {
+            let th = TAU * i as f64 / around as f64;
+            positions.push(Point3::new(radius_mm * th.cos(), radius_mm * th.sin(), z));
+        }
+    }
+    let id = |i: usize, j: usize| (j * around + i % around) as u32;
+    let mut faces = Vec::with_capacity(2 * around * (up - 1));
+    for j in 0..up - 1 {
+        for i in 0..around {
+            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    TriMesh::new(positions, faces)
+}

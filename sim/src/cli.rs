@@ -1,0 +1,39 @@
+//! The `waamtwin` command line (see `../shared/interface.md`).
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "waamtwin",
+    version,
+    about = "Plan and simulate wire-arc additive manufacturing of thin parts"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Mesh report: vertices, faces, boundary loops, open/closed, problems.
+    Inspect {
+        /// An STL, OBJ or PLY file.
+        mesh: PathBuf,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write a scenario's part (a library shape or a mesh file) as a welded STL, OBJ or PLY mesh.
+    Mesh {
+        scenario: PathBuf,
+        /// Output mesh; the extension picks the format.
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+    },
+    /// A built-in closed-part scenario, end to end.
+    Demo {
+        #[arg(short = 'o', long = "out", default_value = "out/demo")]
+        out: PathBuf,
+    },
+}

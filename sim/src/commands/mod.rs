@@ -1,0 +1,4 @@
+//! One module per subcommand; each is a library function a test can call.
+
+pub mod demo;
+pub mod inspect;

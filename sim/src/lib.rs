@@ -1,0 +1,55 @@
+//! # sim
+//!
+//! Wires the pipeline together (plan → beads → heat → decisions and files) and holds the
+//! `waamtwin` command. This is the only crate that touches files; the models take and return
+//! plain data.
+
+pub mod cli;
+pub mod commands;
+pub mod error;
+pub mod output;
+pub mod part;
+pub mod scenario;
+
+use cli::Command;
+pub use error::{Error, Result};
+
+/// Run one command; `main` only maps the result to an exit code.
+pub fn run(cli: cli::Cli) -> Result<()> {
+    match cli.command {
+        Command::Inspect { mesh, json } => {
+            let r = commands::inspect::inspect(&mesh)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&r).unwrap_or_default());
+            } else {
+                print!("{}", commands::inspect::format_report(&r));
+            }
+            Ok(())
+        }
+        Command::Mesh { scenario, out } => {
+            let s = scenario::Scenario::load(&scenario)?;
+            let p = part::load_part(&s.part)?;
+            let name = out.display().to_string();
+            let format = planner::io::MeshFormat::from_extension(&name).ok_or_else(|| {
+                Error::input(format!(
+                    "{name}: unknown mesh extension; expected .stl, .obj or .ply"
+                ))
+            })?;
+            let bytes = planner::io::write_mesh(&p.mesh, format, planner::io::Encoding::Binary);
+            output::write_atomic(&out, &bytes)?;
+            println!(
+                "{}: {} vertices, {} faces, {} part",
+                name,
+                p.mesh.n_vertices(),
+                p.mesh.n_faces(),
+                p.kind.as_str()
+            );
+            Ok(())
+        }
+        Command::Demo { out } => {
+            commands::demo::demo(&out)?;
+            println!("demo written to {}", out.display());
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,666 @@
+//! Scenario files: [`RawScenario`] is what serde reads; [`Scenario`] is checked and in SI units
+//! (geometry stays in mm: the planner is geometry, and works in mm). Only a `Scenario` reaches
+//! the models. Every key and default is documented in `scenarios/README.md`.
+
+mod raw;
+
+pub use raw::*;
+
+use crate::error::{Error, Result};
+use planner::mesh::LowerLoop;
+use planner::shapes::Shape;
+use std::fmt::Display;
+use std::path::{Path, PathBuf};
+
+const MM: f64 = 1e-3;
+const M_MIN: f64 = 1.0 / 60.0;
+const KELVIN: f64 = 273.15;
+
+/// Where the part's mid-surface comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PartSource {
+    Mesh(PathBuf),
+    Shape { shape: Shape, edge_mm: f64 },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartSpec {
+    pub source: PartSource,
+    pub lower: LowerLoop,
+}
+
+/// Deposition process, SI.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Process {
+    pub wire_diameter_m: f64,
+    pub bead_width_m: f64,
+    pub travel_speed_m_s: f64,
+    pub deposit_m: f64,
+    pub deposit_min_m: f64,
+    pub deposit_max_m: f64,
+    pub wfs_min_m_s: f64,
+    pub wfs_max_m_s: f64,
+    pub travel_min_m_s: f64,
+    pub travel_max_m_s: f64,
+    pub arc_power_w: f64,
+    pub efficiency: f64,
+}
+
+/// Material constants, SI (temperatures in K).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub density_kg_m3: f64,
+    pub specific_heat_j_kgk: f64,
+    pub conductivity_w_mk: f64,
+    pub surface_tension_n_m: f64,
+    pub melting_k: f64,
+}
+
+impl Material {
+    /// G3Si (ER70S-6 class) with the skeleton-AM paper's Table 1 (Radel et al. 2019):
+    /// ρ = 7800 kg/m³, σ = 1.6 N/m, melting 1700 K, diffusivity 14e-6 m²/s. c_p = 480 J/(kg K) is
+    /// a room-temperature value for low-carbon steel; k then follows from α = k/(ρ c_p).
+    pub fn g3si() -> Material {
+        let (rho, cp, alpha) = (7800.0, 480.0, 14e-6);
+        Material {
+            name: "G3Si".into(),
+            density_kg_m3: rho,
+            specific_heat_j_kgk: cp,
+            conductivity_w_mk: alpha * rho * cp,
+            surface_tension_n_m: 1.6,
+            melting_k: 1700.0,
+        }
+    }
+
+    pub fn diffusivity_m2_s(&self) -> f64 {
+        self.conductivity_w_mk / (self.density_kg_m3 * self.specific_heat_j_kgk)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ThermalModel {
+    Fe,
+    Voxel,
+}
+
+/// Thermal boundary conditions, SI.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ThermalSettings {
+    pub model: ThermalModel,
+    pub ambient_k: f64,
+    pub convection_w_m2k: f64,
+    pub emissivity: f64,
+    pub plate_m: [f64; 3],
+    pub lead_m: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct DwellSettings {
+    pub interpass_max_k: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannerSettings {
+    pub n_points: usize,
+    pub gap_max_mm: f64,
+}
+
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    pub part: PartSpec,
+    pub process: Process,
+    pub material: Material,
+    pub thermal: ThermalSettings,
+    pub dwell: DwellSettings,
+    pub planner: PlannerSettings,
+    pub output: RawOutput,
+    /// The resolved input, echoed into `manifest.json`.
+    pub raw: RawScenario,
+}
+
+impl Scenario {
+    /// Read and check a scenario file; relative mesh paths are resolved against its folder.
+    pub fn load(path: &Path) -> Result<Scenario> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Scenario::parse(&text, &path.display().to_string(), base)
+    }
+
+    /// Parse scenario text; `file` names it in messages.
+    pub fn parse(text: &str, file: &str, base: &Path) -> Result<Scenario> {
+        let raw: RawScenario = toml::from_str(text).map_err(|e| {
+            // A missing field's span is the whole table: no line says more than the message.
+            let line = e
+                .span()
+                .filter(|_| !e.message().starts_with("missing field"))
+                .map(|s| line_of(text, s.start));
+            let at = match line {
+                Some(l) => format!(
+                    " line {l} ({})",
+                    text.lines().nth(l - 1).unwrap_or("").trim()
+                ),
+                None => String::new(),
+            };
+            Error::input(format!("{file}{at}: {}", e.message()))
+        })?;
+        let c = Checker { text, file };
+        Scenario::from_raw(raw, &c, base)
+    }
+
+    fn from_raw(raw: RawScenario, c: &Checker, base: &Path) -> Result<Scenario> {
+        let part = part_spec(&raw.part, c, base)?;
+        let p = &raw.process;
+        c.positive("process", "wire_diameter_mm", p.wire_diameter_mm, 5.0)?;
+        c.positive("process", "bead_width_mm", p.bead_width_mm, 50.0)?;
+        c.positive("process", "travel_speed_mm_s", p.travel_speed_mm_s, 1000.0)?;
+        c.positive("process", "deposit_mm", p.deposit_mm, 20.0)?;
+        c.positive("process", "deposit_min_mm", p.deposit_min_mm, 20.0)?;
+        c.positive("process", "deposit_max_mm", p.deposit_max_mm, 20.0)?;
+        if p.deposit_min_mm > p.deposit_mm {
+            return Err(c.fail(
+                "process",
+                "deposit_min_mm",
+                p.deposit_min_mm,
+                &format!("at most deposit_mm ({})", p.deposit_mm),
+            ));
+        }
+        if p.deposit_max_mm < p.deposit_mm {
+            return Err(c.fail(
+                "process",
+                "deposit_max_mm",
+                p.deposit_max_mm,
+                &format!("at least deposit_mm ({})", p.deposit_mm),
+            ));
+        }
+        c.positive("process", "wfs_min_m_min", p.wfs_min_m_min, 50.0)?;
+        c.positive("process", "wfs_max_m_min", p.wfs_max_m_min, 50.0)?;
+        if p.wfs_max_m_min < p.wfs_min_m_min {
+            return Err(c.fail(
+                "process",
+                "wfs_max_m_min",
+                p.wfs_max_m_min,
+                &format!("at least wfs_min_m_min ({})", p.wfs_min_m_min),
+            ));
+        }
+        c.positive("process", "travel_min_mm_s", p.travel_min_mm_s, 1000.0)?;
+        c.positive("process", "travel_max_mm_s", p.travel_max_mm_s, 1000.0)?;
+        if p.travel_max_mm_s < p.travel_min_mm_s {
+            return Err(c.fail(
+                "process",
+                "travel_max_mm_s",
+                p.travel_max_mm_s,
+                &format!("at least travel_min_mm_s ({})", p.travel_min_mm_s),
+            ));
+        }
+        c.positive("process", "arc_power_w", p.arc_power_w, 50_000.0)?;
+        c.range("process", "efficiency", p.efficiency, 0.0, 1.0, "in (0, 1]")?;
+        if p.efficiency == 0.0 {
+            return Err(c.fail("process", "efficiency", 0.0, "in (0, 1]"));
+        }
+        let process = Process {
+            wire_diameter_m: p.wire_diameter_mm * MM,
+            bead_width_m: p.bead_width_mm * MM,
+            travel_speed_m_s: p.travel_speed_mm_s * MM,
+            deposit_m: p.deposit_mm * MM,
+            deposit_min_m: p.deposit_min_mm * MM,
+            deposit_max_m: p.deposit_max_mm * MM,
+            wfs_min_m_s: p.wfs_min_m_min * M_MIN,
+            wfs_max_m_s: p.wfs_max_m_min * M_MIN,
+            travel_min_m_s: p.travel_min_mm_s * MM,
+            travel_max_m_s: p.travel_max_mm_s * MM,
+            arc_power_w: p.arc_power_w,
+            efficiency: p.efficiency,
+        };
+        let material = material(&raw.material, c)?;
+        let t = &raw.thermal;
+        let model = match t.model.as_str() {
+            "fe" => ThermalModel::Fe,
+            "voxel" => ThermalModel::Voxel,
+            other => {
+                return Err(c.fail(
+                    "thermal",
+                    "model",
+                    format!("\"{other}\""),
+                    "\"fe\" or \"voxel\"",
+                ));
+            }
+        };
+        c.range(
+            "thermal",
+            "ambient_c",
+            t.ambient_c,
+            -50.0,
+            100.0,
+            "between -50 and 100",
+        )?;
+        c.range(
+            "thermal",
+            "convection_w_m2k",
+            t.convection_w_m2k,
+            0.0,
+            10_000.0,
+            "between 0 and 10000",
+        )?;
+        c.range(
+            "thermal",
+            "emissivity",
+            t.emissivity,
+            0.0,
+            1.0,
+            "between 0 and 1",
+        )?;
+        for (k, v) in t.plate_mm.iter().enumerate() {
+            if !(v.is_finite() && *v > 0.0 && *v <= 10_000.0) {
+                return Err(c.fail(
+                    "thermal",
+                    "plate_mm",
+                    format!("{:?}", t.plate_mm),
+                    &format!("three sizes in (0, 10000] mm (entry {k} is {v})"),
+                ));
+            }
+        }
+        c.range(
+            "thermal",
+            "lead_mm",
+            t.lead_mm,
+            0.0,
+            1000.0,
+            "between 0 and 1000",
+        )?;
+        let thermal = ThermalSettings {
+            model,
+            ambient_k: t.ambient_c + KELVIN,
+            convection_w_m2k: t.convection_w_m2k,
+            emissivity: t.emissivity,
+            plate_m: t.plate_mm.map(|v| v * MM),
+            lead_m: t.lead_mm * MM,
+        };
+        c.range(
+            "dwell",
+            "interpass_max_c",
+            raw.dwell.interpass_max_c,
+            20.0,
+            1500.0,
+            "between 20 and 1500",
+        )?;
+        let dwell = DwellSettings {
+            interpass_max_k: raw.dwell.interpass_max_c + KELVIN,
+        };
+        let pl = &raw.planner;
+        if !(8..=100_000).contains(&pl.n_points) {
+            return Err(c.fail("planner", "n_points", pl.n_points, "between 8 and 100000"));
+        }
+        c.positive("planner", "gap_max_mm", pl.gap_max_mm, 100.0)?;
+        let planner = PlannerSettings {
+            n_points: pl.n_points,
+            gap_max_mm: pl.gap_max_mm,
+        };
+        Ok(Scenario {
+            part,
+            process,
+            material,
+            thermal,
+            dwell,
+            planner,
+            output: raw.output.clone(),
+            raw,
+        })
+    }
+
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(&self.raw).unwrap_or(serde_json::Value::Null)
+    }
+}
+
+fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {
+    let lower = p.lower_loop.map(LowerLoop::Index).unwrap_or_default();
+    let source = match (&p.mesh, &p.shape) {
+        (Some(_), Some(_)) => {
+            return Err(c.fail(
+                "part",
+                "shape",
+                "given with part.mesh",
+                "either mesh or shape, not both",
+            ));
+        }
+        (None, None) => {
+            return Err(Error::input(format!(
+                "{}: [part] needs a mesh = \"file\" or a shape = \"name\"",
+                c.file
+            )));
+        }
+        (Some(mesh), None) => {
+            let path = base.join(mesh);
+            if !path.is_file() {
+                return Err(c.fail(
+                    "part",
+                    "mesh",
+                    format!("\"{mesh}\""),
+                    &format!("an existing mesh file ({} not found)", path.display()),
+                ));
+            }
+            if planner::io::MeshFormat::from_extension(mesh).is_none() {
+                return Err(c.fail(
+                    "part",
+                    "mesh",
+                    format!("\"{mesh}\""),
+                    "a .stl, .obj or .ply file",
+                ));
+            }
+            PartSource::Mesh(path)
+        }
+        (None, Some(name)) => {
+            let shape = shape(name, p, c)?;
+            let edge_mm = p.edge_mm.unwrap_or(2.0);
+            c.positive("part", "edge_mm", edge_mm, 100.0)?;
+            let size = extent_mm(&shape);
+            if size / edge_mm > 2000.0 {
+                return Err(c.fail(
+                    "part",
+                    "edge_mm",
+                    edge_mm,
+                    &format!(
+                        "at least {:.3} mm for a part of {size:.0} mm (at most 2000 edges across)",
+                        size / 2000.0
+                    ),
+                ));
+            }
+            PartSource::Shape { shape, edge_mm }
+        }
+    };
+    if p.mesh.is_some() && p.edge_mm.is_some() {
+        return Err(c.fail(
+            "part",
+            "edge_mm",
+            p.edge_mm.unwrap(),
+            "no edge_mm with a mesh file (it is meshed already)",
+        ));
+    }
+    Ok(PartSpec { source, lower })
+}
+
+/// The largest dimension of a shape, for the mesh-size guard.
+fn extent_mm(shape: &Shape) -> f64 {
+    match *shape {
+        Shape::Cylinder {
+            radius_mm,
+            height_mm,
+        } => (2.0 * radius_mm).max(height_mm),
+        Shape::ConeFrustum {
+            radius_mm,
+            top_radius_mm,
+            height_mm,
+        } => (2.0 * radius_mm.max(top_radius_mm)).max(height_mm),
+        Shape::Vase {
+            radius_mm,
+            height_mm,
+            bulge_mm,
+            top_slope_mm,
+            top_wave_mm,
+            ..
+        } => (2.0 * (radius_mm + bulge_mm.abs()))
+            .max(height_mm + top_slope_mm.abs() + top_wave_mm.abs()),
+        Shape::Hemisphere { radius_mm } | Shape::Disk { radius_mm } => 2.0 * radius_mm,
+        Shape::AsymmetricDome {
+            radius_mm,
+            height_mm,
+            lean_mm,
+        } => (2.0 * radius_mm + lean_mm.abs()).max(height_mm),
+        Shape::QuarterTorus {
+            bend_radius_mm,
+            tube_radius_mm,
+        } => bend_radius_mm + tube_radius_mm,
+    }
+}
+
+fn shape(name: &str, p: &RawPart, c: &Checker) -> Result<Shape> {
+    let given: [(&str, Option<f64>); 10] = [
+        ("radius_mm", p.radius_mm),
+        ("top_radius_mm", p.top_radius_mm),
+        ("height_mm", p.height_mm),
+        ("bulge_mm", p.bulge_mm),
+        ("top_slope_mm", p.top_slope_mm),
+        ("top_wave_mm", p.top_wave_mm),
+        ("top_waves", p.top_waves.map(f64::from)),
+        ("lean_mm", p.lean_mm),
+        ("bend_radius_mm", p.bend_radius_mm),
+        ("tube_radius_mm", p.tube_radius_mm),
+    ];
+    let (needs, optional): (&[&str], &[&str]) = match name {
+        "cylinder" => (&["radius_mm", "height_mm"], &[]),
+        "cone_frustum" => (&["radius_mm", "top_radius_mm", "height_mm"], &[]),
+        "vase" => (
+            &["radius_mm", "height_mm"],
+            &["bulge_mm", "top_slope_mm", "top_wave_mm", "top_waves"],
+        ),
+        "hemisphere" | "disk" => (&["radius_mm"], &[]),
+        "asymmetric_dome" => (&["radius_mm", "height_mm"], &["lean_mm"]),
+        "quarter_torus" => (&["bend_radius_mm", "tube_radius_mm"], &[]),
+        other => {
+            return Err(c.fail(
+                "part",
+                "shape",
+                format!("\"{other}\""),
+                &format!("one of {}", Shape::NAMES.join(", ")),
+            ));
+        }
+    };
+    for (key, v) in given {
+        if v.is_some() && !needs.contains(&key) && !optional.contains(&key) {
+            return Err(c.fail(
+                "part",
+                key,
+                v.unwrap(),
+                &format!(
+                    "no {key} for shape \"{name}\" (it takes {})",
+                    [needs, optional].concat().join(", ")
+                ),
+            ));
+        }
+    }
+    let get = |key: &str| -> Result<f64> {
+        let v = given.iter().find(|(k, _)| *k == key).and_then(|(_, v)| *v);
+        match v {
+            Some(v) if needs.contains(&key) => {
+                c.positive("part", key, v, 100_000.0)?;
+                Ok(v)
+            }
+            Some(v) => {
+                c.range("part", key, v, -100_000.0, 100_000.0, "a finite length")?;
+                Ok(v)
+            }
+            None if needs.contains(&key) => Err(Error::input(format!(
+                "{}: part.{key} is missing; shape \"{name}\" needs {}",
+                c.file,
+                needs.join(", ")
+            ))),
+            None => Ok(0.0),
+        }
+    };
+    let shape = match name {
+        "cylinder" => Shape::Cylinder {
+            radius_mm: get("radius_mm")?,
+            height_mm: get("height_mm")?,
+        },
+        "cone_frustum" => Shape::ConeFrustum {
+            radius_mm: get("radius_mm")?,
+            top_radius_mm: get("top_radius_mm")?,
+            height_mm: get("height_mm")?,
+        },
+        "vase" => {
+            let s = Shape::Vase {
+                radius_mm: get("radius_mm")?,
+                height_mm: get("height_mm")?,
+                bulge_mm: get("bulge_mm")?,
+                top_slope_mm: get("top_slope_mm")?,
+                top_wave_mm: get("top_wave_mm")?,
+                top_waves: p.top_waves.unwrap_or(0),
+            };
+            if let Shape::Vase {
+                radius_mm,
+                height_mm,
+                bulge_mm,
+                top_slope_mm,
+                top_wave_mm,
+                ..
+            } = s
+            {
+                if bulge_mm.abs() >= radius_mm {
+                    return Err(c.fail(
+                        "part",
+                        "bulge_mm",
+                        bulge_mm,
+                        &format!("smaller than radius_mm ({radius_mm}) in magnitude"),
+                    ));
+                }
+                if top_slope_mm.abs() + top_wave_mm.abs() >= height_mm {
+                    return Err(c.fail(
+                        "part",
+                        "top_slope_mm",
+                        top_slope_mm,
+                        "|top_slope_mm| + |top_wave_mm| below height_mm",
+                    ));
+                }
+            }
+            s
+        }
+        "hemisphere" => Shape::Hemisphere {
+            radius_mm: get("radius_mm")?,
+        },
+        "disk" => Shape::Disk {
+            radius_mm: get("radius_mm")?,
+        },
+        "asymmetric_dome" => Shape::AsymmetricDome {
+            radius_mm: get("radius_mm")?,
+            height_mm: get("height_mm")?,
+            lean_mm: get("lean_mm")?,
+        },
+        _ => {
+            let (big, small) = (get("bend_radius_mm")?, get("tube_radius_mm")?);
+            if small >= big {
+                return Err(c.fail(
+                    "part",
+                    "tube_radius_mm",
+                    small,
+                    &format!("smaller than bend_radius_mm ({big})"),
+                ));
+            }
+            Shape::QuarterTorus {
+                bend_radius_mm: big,
+                tube_radius_mm: small,
+            }
+        }
+    };
+    Ok(shape)
+}
+
+fn material(m: &RawMaterial, c: &Checker) -> Result<Material> {
+    let mut mat = match m.preset.as_str() {
+        "G3Si" | "g3si" => Material::g3si(),
+        other => return Err(c.fail("material", "preset", format!("\"{other}\""), "\"G3Si\"")),
+    };
+    if let Some(v) = m.density_kg_m3 {
+        c.positive("material", "density_kg_m3", v, 30_000.0)?;
+        mat.density_kg_m3 = v;
+    }
+    if let Some(v) = m.specific_heat_j_kgk {
+        c.positive("material", "specific_heat_j_kgk", v, 10_000.0)?;
+        mat.specific_heat_j_kgk = v;
+    }
+    if let Some(v) = m.conductivity_w_mk {
+        c.positive("material", "conductivity_w_mk", v, 1_000.0)?;
+        mat.conductivity_w_mk = v;
+    }
+    if let Some(v) = m.surface_tension_n_m {
+        c.positive("material", "surface_tension_n_m", v, 10.0)?;
+        mat.surface_tension_n_m = v;
+    }
+    if let Some(v) = m.melting_c {
+        c.range(
+            "material",
+            "melting_c",
+            v,
+            100.0,
+            4000.0,
+            "between 100 and 4000",
+        )?;
+        mat.melting_k = v + KELVIN;
+    }
+    Ok(mat)
+}
+
+/// Checks values and words the error with the file, the line and the key.
+struct Checker<'a> {
+    text: &'a str,
+    file: &'a str,
+}
+
+impl Checker<'_> {
+    fn fail(&self, section: &str, key: &str, value: impl Display, expected: &str) -> Error {
+        let at = match locate(self.text, section, key) {
+            Some(l) => format!(" line {l}"),
+            None => String::new(),
+        };
+        Error::input(format!(
+            "{}{at}: {section}.{key} = {value}; expected {expected}",
+            self.file
+        ))
+    }
+
+    fn positive(&self, section: &str, key: &str, v: f64, max: f64) -> Result<()> {
+        if v.is_finite() && v > 0.0 && v <= max {
+            Ok(())
+        } else {
+            Err(self.fail(section, key, v, &format!("a number in (0, {max}]")))
+        }
+    }
+
+    fn range(
+        &self,
+        section: &str,
+        key: &str,
+        v: f64,
+        lo: f64,
+        hi: f64,
+        expected: &str,
+    ) -> Result<()> {
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(())
+        } else {
+            Err(self.fail(section, key, v, expected))
+        }
+    }
+}
+
+fn line_of(text: &str, byte: usize) -> usize {
+    text[..byte.min(text.len())]
+        .bytes()
+        .filter(|&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// The 1-based line where `key` is set inside `[section]`, if the file sets it.
+fn locate(text: &str, section: &str, key: &str) -> Option<usize> {
+    let mut current = String::new();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if let Some(h) = t.strip_prefix('[') {
+            current = h.trim_end_matches(']').trim().to_string();
+            continue;
+        }
+        if current == section {
+            if let Some(rest) = t.strip_prefix(key) {
+                if rest.trim_start().starts_with('=') {
+                    return Some(i + 1);
+                }
+            }
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,197 @@
+//! `RawScenario`: exactly what serde reads from a scenario TOML, units in the key names, every
+//! default filled in. Nothing here is checked; [`super::Scenario::from_raw`] does that.
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawScenario {
+    pub part: RawPart,
+    #[serde(default)]
+    pub process: RawProcess,
+    #[serde(default)]
+    pub material: RawMaterial,
+    #[serde(default)]
+    pub thermal: RawThermal,
+    #[serde(default)]
+    pub dwell: RawDwell,
+    #[serde(default)]
+    pub planner: RawPlanner,
+    #[serde(default)]
+    pub output: RawOutput,
+}
+
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPart {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shape: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radius_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub top_radius_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub height_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bulge_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub top_slope_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub top_wave_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub top_waves: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lean_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bend_radius_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tube_radius_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_mm: Option<f64>,
+    /// Which boundary loop is on the substrate; absent: the lowest one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lower_loop: Option<usize>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawProcess {
+    pub wire_diameter_mm: f64,
+    pub bead_width_mm: f64,
+    pub travel_speed_mm_s: f64,
+    pub deposit_mm: f64,
+    pub deposit_min_mm: f64,
+    pub deposit_max_mm: f64,
+    pub wfs_min_m_min: f64,
+    pub wfs_max_m_min: f64,
+    pub travel_min_mm_s: f64,
+    pub travel_max_mm_s: f64,
+    pub arc_power_w: f64,
+    pub efficiency: f64,
+}
+
+impl Default for RawProcess {
+    fn default() -> Self {
+        Self {
+            wire_diameter_mm: 1.0,
+            bead_width_mm: 5.0,
+            travel_speed_mm_s: 10.0,
+            deposit_mm: 2.0,
+            deposit_min_mm: 1.8,
+            deposit_max_mm: 2.2,
+            wfs_min_m_min: 1.5,
+            wfs_max_m_min: 10.0,
+            travel_min_mm_s: 2.0,
+            travel_max_mm_s: 25.0,
+            arc_power_w: 2000.0,
+            efficiency: 0.85,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawMaterial {
+    pub preset: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub density_kg_m3: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub specific_heat_j_kgk: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conductivity_w_mk: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface_tension_n_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub melting_c: Option<f64>,
+}
+
+impl Default for RawMaterial {
+    fn default() -> Self {
+        Self {
+            preset: "G3Si".into(),
+            density_kg_m3: None,
+            specific_heat_j_kgk: None,
+            conductivity_w_mk: None,
+            surface_tension_n_m: None,
+            melting_c: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawThermal {
+    pub model: String,
+    pub ambient_c: f64,
+    pub convection_w_m2k: f64,
+    pub emissivity: f64,
+    pub plate_mm: [f64; 3],
+    pub lead_mm: f64,
+}
+
+impl Default for RawThermal {
+    fn default() -> Self {
+        Self {
+            model: "fe".into(),
+            ambient_c: 20.0,
+            convection_w_m2k: 15.0,
+            emissivity: 0.6,
+            plate_mm: [250.0, 250.0, 10.0],
+            lead_mm: 10.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawDwell {
+    pub interpass_max_c: f64,
+}
+
+impl Default for RawDwell {
+    fn default() -> Self {
+        Self {
+            interpass_max_c: 200.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawPlanner {
+    /// n_pts of CTPP §2.2.1: points on the lower boundary.
+    pub n_points: usize,
+    /// ε₀ of CTPP Eq.3: the largest gap between neighbouring generators before one is filled.
+    pub gap_max_mm: f64,
+}
+
+impl Default for RawPlanner {
+    fn default() -> Self {
+        Self {
+            n_points: 120,
+            gap_max_mm: 0.2,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawOutput {
+    pub rerun: bool,
+    pub mcap: bool,
+    pub hdf5: bool,
+    pub plots: bool,
+}
+
+impl Default for RawOutput {
+    fn default() -> Self {
+        Self {
+            rerun: true,
+            mcap: true,
+            hdf5: true,
+            plots: true,
+        }
+    }
+}

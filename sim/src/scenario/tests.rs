@@ -1,0 +1,29 @@
+use super::*;
+
+fn parse(text: &str) -> Result<Scenario> {
+    Scenario::parse(text, "s.toml", Path::new("."))
+}
+
+#[test]
+fn defaults_fill_in_and_convert_to_si() {
+    let s = parse("[part]\nshape = \"hemisphere\"\nradius_mm = 100.0\n").unwrap();
+    assert_eq!(s.process.deposit_m, 2.0e-3);
+    assert!((s.process.wfs_max_m_s - 10.0 / 60.0).abs() < 1e-15);
+    assert_eq!(s.thermal.ambient_k, 293.15);
+    assert!((s.material.diffusivity_m2_s() - 14e-6).abs() < 1e-18);
+    assert_eq!(
+        s.part.source,
+        PartSource::Shape {
+            shape: Shape::Hemisphere { radius_mm: 100.0 },
+            edge_mm: 2.0
+        }
+    );
+}
+
+#[test]
+fn locate_finds_the_key_in_its_section() {
+    let t = "[part]\ndeposit_mm = 1\n[process]\n# c\ndeposit_mm = 3\n";
+    assert_eq!(locate(t, "process", "deposit_mm"), Some(5));
+    assert_eq!(locate(t, "part", "deposit_mm"), Some(2));
+    assert_eq!(locate(t, "thermal", "deposit_mm"), None);
+}

@@ -1,0 +1,69 @@
+//! Scenarios as data: every file under `scenarios/` and `tests/scenarios/good` must load; every
+//! file under `tests/scenarios/bad` must fail with the message its first line announces
+//! (`# expect: TEXT`, where each `|`-separated part must appear in the one-line error).
+
+use crate::{assert_input_error, root, scratch, waamtwin};
+
+fn toml_files(dir: &str) -> Vec<std::path::PathBuf> {
+    let mut v: Vec<_> = std::fs::read_dir(root().join(dir))
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn shipped_and_good_scenarios_load() {
+    let files: Vec<_> = toml_files("scenarios")
+        .into_iter()
+        .chain(toml_files("tests/scenarios/good"))
+        .collect();
+    assert!(files.len() >= 8);
+    for f in files {
+        let s =
+            sim::scenario::Scenario::load(&f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        sim::part::load_part(&s.part).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+    }
+}
+
+#[test]
+fn every_library_shape_has_a_scenario() {
+    let text: String = toml_files("scenarios")
+        .iter()
+        .map(|f| std::fs::read_to_string(f).unwrap())
+        .collect();
+    for name in planner::shapes::Shape::NAMES
+        .iter()
+        .filter(|n| **n != "disk")
+    {
+        assert!(
+            text.contains(&format!("shape = \"{name}\"")),
+            "no scenario for {name}"
+        );
+    }
+}
+
+#[test]
+fn bad_scenarios_fail_with_their_announced_message() {
+    let files = toml_files("tests/scenarios/bad");
+    assert!(files.len() >= 10);
+    let dir = scratch("bad_scenarios");
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let expect = text
+            .lines()
+            .next()
+            .and_then(|l| l.strip_prefix("# expect: "))
+            .unwrap_or_else(|| panic!("{} has no '# expect:' line", f.display()));
+        let needles: Vec<&str> = expect.split('|').map(str::trim).collect();
+        let out = waamtwin(&[
+            "mesh",
+            f.to_str().unwrap(),
+            "-o",
+            dir.join("x.stl").to_str().unwrap(),
+        ]);
+        assert_input_error(&out, &needles);
+    }
+}
