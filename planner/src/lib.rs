@@ -9,6 +9,8 @@
 
 pub use nalgebra;
 
+pub mod geodesic;
+pub mod geometry;
 pub mod io;
 pub mod mesh;
 pub mod shapes;

@@ -24,6 +24,15 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Geodesic distance from a boundary loop or from vertices, one row per welded vertex.
+    Geodesic {
+        mesh: PathBuf,
+        /// `lower`, `upper`, or `vertex:I[,J..]` (indices of the welded mesh, as `inspect` counts).
+        #[arg(long)]
+        from: String,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+    },
     /// Write a scenario's part (a library shape or a mesh file) as a welded STL, OBJ or PLY mesh.
     Mesh {
         scenario: PathBuf,

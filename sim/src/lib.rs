@@ -26,6 +26,11 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::Geodesic { mesh, from, out } => {
+            let n = commands::geodesic::geodesic(&mesh, &from, &out)?;
+            println!("{}: distance at {n} vertices", out.display());
+            Ok(())
+        }
         Command::Mesh { scenario, out } => {
             let s = scenario::Scenario::load(&scenario)?;
             let p = part::load_part(&s.part)?;

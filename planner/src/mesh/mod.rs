@@ -175,12 +175,10 @@ impl Part {
             }
             n => return Err(MeshError::LoopCount { loops: n }),
         };
-        if kind == PartKind::Closed {
-            if let LowerLoop::Index(i) = lower {
-                if i != 0 {
-                    return Err(MeshError::BadLowerLoop { index: i, loops: 1 });
-                }
-            }
+        if let (PartKind::Closed, LowerLoop::Index(i)) = (kind, lower)
+            && i != 0
+        {
+            return Err(MeshError::BadLowerLoop { index: i, loops: 1 });
         }
         Ok(Part {
             mesh,

@@ -79,7 +79,7 @@ fn edge_tables(mesh: &TriMesh) -> Result<EdgeTables, MeshError> {
     let mut face_edges = Vec::with_capacity(mesh.n_faces());
     for (f, face) in mesh.faces.iter().enumerate() {
         let mut fe = [0u32; 3];
-        for k in 0..3 {
+        for (k, slot_out) in fe.iter_mut().enumerate() {
             let (a, b) = (face[k], face[(k + 1) % 3]);
             let key = (a.min(b), a.max(b));
             let e = *index.entry(key).or_insert_with(|| {
@@ -105,7 +105,7 @@ fn edge_tables(mesh: &TriMesh) -> Result<EdgeTables, MeshError> {
                     faces,
                 });
             }
-            fe[k] = e;
+            *slot_out = e;
         }
         face_edges.push(fe);
     }
@@ -142,8 +142,7 @@ fn orient(
         queue.push_back(seed);
         while let Some(f) = queue.pop_front() {
             sizes[c] += 1;
-            for k in 0..3 {
-                let e = face_edges[f][k];
+            for e in face_edges[f] {
                 let [a, b] = edge_faces[e as usize];
                 let g = if a as usize == f { b } else { a };
                 if g == NONE {

@@ -1,4 +1,5 @@
 //! One module per subcommand; each is a library function a test can call.
 
 pub mod demo;
+pub mod geodesic;
 pub mod inspect;

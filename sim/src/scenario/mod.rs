@@ -370,11 +370,11 @@ fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {
             PartSource::Shape { shape, edge_mm }
         }
     };
-    if p.mesh.is_some() && p.edge_mm.is_some() {
+    if let (Some(_), Some(edge)) = (&p.mesh, p.edge_mm) {
         return Err(c.fail(
             "part",
             "edge_mm",
-            p.edge_mm.unwrap(),
+            edge,
             "no edge_mm with a mesh file (it is meshed already)",
         ));
     }
@@ -448,11 +448,11 @@ fn shape(name: &str, p: &RawPart, c: &Checker) -> Result<Shape> {
         }
     };
     for (key, v) in given {
-        if v.is_some() && !needs.contains(&key) && !optional.contains(&key) {
+        if let Some(v) = v.filter(|_| !needs.contains(&key) && !optional.contains(&key)) {
             return Err(c.fail(
                 "part",
                 key,
-                v.unwrap(),
+                v,
                 &format!(
                     "no {key} for shape \"{name}\" (it takes {})",
                     [needs, optional].concat().join(", ")
@@ -651,12 +651,11 @@ fn locate(text: &str, section: &str, key: &str) -> Option<usize> {
             current = h.trim_end_matches(']').trim().to_string();
             continue;
         }
-        if current == section {
-            if let Some(rest) = t.strip_prefix(key) {
-                if rest.trim_start().starts_with('=') {
-                    return Some(i + 1);
-                }
-            }
+        if current == section
+            && let Some(rest) = t.strip_prefix(key)
+            && rest.trim_start().starts_with('=')
+        {
+            return Some(i + 1);
         }
     }
     None
