@@ -9,8 +9,17 @@
 
 pub use nalgebra;
 
+pub mod closing_point;
+pub mod collision;
+pub mod deviation;
+pub mod generators;
 pub mod geodesic;
 pub mod geometry;
 pub mod io;
 pub mod mesh;
+pub mod orientation;
+pub mod plan;
+pub mod planar;
 pub mod shapes;
+pub mod skeleton;
+pub mod spiral;

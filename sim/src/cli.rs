@@ -33,6 +33,14 @@ pub enum Command {
         #[arg(short = 'o', long = "out")]
         out: PathBuf,
     },
+    /// Plan the continuous path: plan.json, generators.csv, path.csv.
+    Plan {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+        #[arg(long, value_enum, default_value_t = Strategy::Ctpp)]
+        strategy: Strategy,
+    },
     /// Write a scenario's part (a library shape or a mesh file) as a welded STL, OBJ or PLY mesh.
     Mesh {
         scenario: PathBuf,
@@ -45,4 +53,13 @@ pub enum Command {
         #[arg(short = 'o', long = "out", default_value = "out/demo")]
         out: PathBuf,
     },
+}
+
+/// Path-planning strategy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Strategy {
+    /// Continuous three-dimensional path planning: one spiral.
+    Ctpp,
+    /// The planar 2.5D baseline: horizontal slices every h.
+    Planar,
 }

@@ -9,6 +9,7 @@ pub mod commands;
 pub mod error;
 pub mod output;
 pub mod part;
+pub mod progress;
 pub mod scenario;
 
 use cli::Command;
@@ -29,6 +30,15 @@ pub fn run(cli: cli::Cli) -> Result<()> {
         Command::Geodesic { mesh, from, out } => {
             let n = commands::geodesic::geodesic(&mesh, &from, &out)?;
             println!("{}: distance at {n} vertices", out.display());
+            Ok(())
+        }
+        Command::Plan {
+            scenario,
+            out,
+            strategy,
+        } => {
+            let line = commands::plan::run(&scenario, &out, strategy)?;
+            println!("{line}");
             Ok(())
         }
         Command::Mesh { scenario, out } => {

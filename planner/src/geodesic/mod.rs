@@ -340,7 +340,8 @@ impl<'m> HeatSolver<'m> {
             a[k * m + j] = 1.0;
         }
         rhs[k] = -total;
-        let x = solve_dense(&mut a, &mut rhs, m);
+        let x = crate::geometry::solve_dense(&mut a, &mut rhs, m)
+            .expect("bordered Green's system is regular");
         let (c, d) = (&x[..k], x[k]);
         use rayon::prelude::*;
         (0..n)
@@ -391,37 +392,6 @@ impl<'m> HeatSolver<'m> {
         cache.push((set.to_vec(), f.clone()));
         f
     }
-}
-
-/// Gaussian elimination with partial pivoting on a small dense system (row-major m × m).
-fn solve_dense(a: &mut [f64], b: &mut [f64], m: usize) -> Vec<f64> {
-    for col in 0..m {
-        let piv = (col..m)
-            .max_by(|&i, &j| a[i * m + col].abs().total_cmp(&a[j * m + col].abs()))
-            .expect("rows");
-        if piv != col {
-            for j in 0..m {
-                a.swap(col * m + j, piv * m + j);
-            }
-            b.swap(col, piv);
-        }
-        let p = a[col * m + col];
-        for i in col + 1..m {
-            let f = a[i * m + col] / p;
-            if f != 0.0 {
-                for j in col..m {
-                    a[i * m + j] -= f * a[col * m + j];
-                }
-                b[i] -= f * b[col];
-            }
-        }
-    }
-    let mut x = vec![0.0; m];
-    for i in (0..m).rev() {
-        let s: f64 = (i + 1..m).map(|j| a[i * m + j] * x[j]).sum();
-        x[i] = (b[i] - s) / a[i * m + i];
-    }
-    x
 }
 
 fn point_segment_distance(p: Point3<f64>, a: Point3<f64>, b: Point3<f64>) -> f64 {

@@ -151,6 +151,24 @@ impl<'a> Tracer<'a> {
         }
     }
 
+    /// Descend `phi`, the distance from the single point `goal`, and finish exactly at the goal.
+    /// φ is piecewise linear, so it has its minimum at a vertex near the goal rather than at the
+    /// goal itself; the walk ends there, within a couple of edges, and the last step joins it.
+    pub fn descend_to(&self, phi: &[f64], start: SurfacePoint, goal: Point3<f64>) -> GeodesicPath {
+        let mut path = self.descend(phi, start);
+        let near = 3.0 * self.scale;
+        if let Some(&end) = path.points.last()
+            && (end - goal).norm() < near
+        {
+            if (end - goal).norm() > 1e-12 * self.scale {
+                path.length_mm += (end - goal).norm();
+                path.points.push(goal);
+            }
+            path.reached = true;
+        }
+        path
+    }
+
     /// Inside (or on the border of) face f: follow −∇φ to the exit, or hand over to an edge or a
     /// vertex when the descent leaves the face at once.
     fn face_step(&self, f: usize, bary: [f64; 3], phi: &[f64]) -> State {

@@ -3,6 +3,7 @@
 //! "Geodesics in Heat", §3.2). Conventions: `laplacian` is the positive semi-definite
 //! L = −Δ (L_ii = Σ_j w_ij, L_ij = −w_ij, w_ij = (cot α_ij + cot β_ij)/2), so L·1 = 0.
 
+pub mod closest;
 pub mod sparse;
 
 use crate::mesh::TriMesh;
@@ -148,4 +149,38 @@ impl Operators {
             })
             .collect()
     }
+}
+
+/// Gaussian elimination with partial pivoting on a small dense system (row-major m × m); `None`
+/// if it is singular.
+pub fn solve_dense(a: &mut [f64], b: &mut [f64], m: usize) -> Option<Vec<f64>> {
+    for col in 0..m {
+        let piv =
+            (col..m).max_by(|&i, &j| a[i * m + col].abs().total_cmp(&a[j * m + col].abs()))?;
+        if a[piv * m + col].abs() < 1e-300 {
+            return None;
+        }
+        if piv != col {
+            for j in 0..m {
+                a.swap(col * m + j, piv * m + j);
+            }
+            b.swap(col, piv);
+        }
+        let p = a[col * m + col];
+        for i in col + 1..m {
+            let f = a[i * m + col] / p;
+            if f != 0.0 {
+                for j in col..m {
+                    a[i * m + j] -= f * a[col * m + j];
+                }
+                b[i] -= f * b[col];
+            }
+        }
+    }
+    let mut x = vec![0.0; m];
+    for i in (0..m).rev() {
+        let s: f64 = (i + 1..m).map(|j| a[i * m + j] * x[j]).sum();
+        x[i] = (b[i] - s) / a[i * m + i];
+    }
+    Some(x)
 }

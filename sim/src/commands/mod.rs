@@ -3,3 +3,4 @@
 pub mod demo;
 pub mod geodesic;
 pub mod inspect;
+pub mod plan;

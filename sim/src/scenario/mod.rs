@@ -104,6 +104,8 @@ pub struct DwellSettings {
 pub struct PlannerSettings {
     pub n_points: usize,
     pub gap_max_mm: f64,
+    pub deposit_tolerance_mm: f64,
+    pub nozzle: planner::collision::Nozzle,
 }
 
 #[derive(Debug, Clone)]
@@ -293,9 +295,33 @@ impl Scenario {
             return Err(c.fail("planner", "n_points", pl.n_points, "between 8 and 100000"));
         }
         c.positive("planner", "gap_max_mm", pl.gap_max_mm, 100.0)?;
+        c.range(
+            "planner",
+            "deposit_tolerance_mm",
+            pl.deposit_tolerance_mm,
+            0.0,
+            1.0,
+            "between 0 and 1",
+        )?;
+        c.positive("planner", "nozzle_radius_mm", pl.nozzle_radius_mm, 500.0)?;
+        c.range(
+            "planner",
+            "nozzle_standoff_mm",
+            pl.nozzle_standoff_mm,
+            0.0,
+            500.0,
+            "between 0 and 500",
+        )?;
+        c.positive("planner", "nozzle_length_mm", pl.nozzle_length_mm, 5000.0)?;
         let planner = PlannerSettings {
             n_points: pl.n_points,
             gap_max_mm: pl.gap_max_mm,
+            deposit_tolerance_mm: pl.deposit_tolerance_mm,
+            nozzle: planner::collision::Nozzle {
+                radius_mm: pl.nozzle_radius_mm,
+                standoff_mm: pl.nozzle_standoff_mm,
+                length_mm: pl.nozzle_length_mm,
+            },
         };
         Ok(Scenario {
             part,

@@ -165,6 +165,11 @@ pub struct RawPlanner {
     pub n_points: usize,
     /// ε₀ of CTPP Eq.3: the largest gap between neighbouring generators before one is filled.
     pub gap_max_mm: f64,
+    /// Deposits this close to the window count as inside it (Eq.6).
+    pub deposit_tolerance_mm: f64,
+    pub nozzle_radius_mm: f64,
+    pub nozzle_standoff_mm: f64,
+    pub nozzle_length_mm: f64,
 }
 
 impl Default for RawPlanner {
@@ -172,6 +177,10 @@ impl Default for RawPlanner {
         Self {
             n_points: 120,
             gap_max_mm: 0.2,
+            deposit_tolerance_mm: 0.01,
+            nozzle_radius_mm: 10.0,
+            nozzle_standoff_mm: 12.0,
+            nozzle_length_mm: 80.0,
         }
     }
 }

@@ -1,0 +1,94 @@
+//! Build direction, tool axis and true deposit (CTPP §2.4, Fig. 17–18), and the feasibility
+//! criterion (§2.5, Eq.6).
+//!
+//! At each path point the build direction is b = n × t, with n the surface normal and t the unit
+//! direction of travel; it lies in the tangent plane, across the bead. t is the discrete
+//! Frenet tangent (from the previous to the next point, the paper's Fig. 22 frame), which at the
+//! spiral's seam averages the climb to the next revolution with the level run before it. The deposit d laid
+//! along the generator is projected on b: H = d·cos θ, θ the angle between b and the generator.
+//! The tool axis (from the deposit to the torch) is b.
+
+use nalgebra::Vector3;
+
+/// Per path point: tool axis and true deposit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Oriented {
+    pub tool: Vector3<f64>,
+    pub deposit_mm: f64,
+}
+
+/// `normals[i]` the surface normal, `along[i]` the generator's unit direction (upwards) and
+/// `step[i]` the deposit d along it, at each of the path `points`.
+pub fn orient(
+    points: &[nalgebra::Point3<f64>],
+    normals: &[Vector3<f64>],
+    along: &[Vector3<f64>],
+    step: &[f64],
+) -> Vec<Oriented> {
+    let n = points.len();
+    let unit = |d: Vector3<f64>| d.try_normalize(1e-9);
+    let mut last_t = Vector3::x();
+    (0..n)
+        .map(|i| {
+            let ahead = (i + 1..n).map(|j| points[j] - points[i]).find_map(unit);
+            let behind = (0..i).rev().map(|j| points[i] - points[j]).find_map(unit);
+            let t = match (behind, ahead) {
+                (Some(a), Some(b)) => unit(a + b).unwrap_or(b),
+                (None, Some(t)) | (Some(t), None) => t,
+                (None, None) => last_t,
+            };
+            last_t = t;
+            let b = normals[i]
+                .cross(&t)
+                .try_normalize(1e-12)
+                .unwrap_or(along[i]);
+            let b = if b.dot(&along[i]) < 0.0 { -b } else { b };
+            Oriented {
+                tool: b,
+                deposit_mm: step[i] * b.dot(&along[i]).clamp(0.0, 1.0),
+            }
+        })
+        .collect()
+}
+
+/// A deposit outside the window (Eq.6), located.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Violation {
+    pub point: usize,
+    pub layer: usize,
+    pub generator: usize,
+    pub deposit_mm: f64,
+    /// The bound it breaks (h_min or h_max).
+    pub bound_mm: f64,
+}
+
+/// Eq.6: max(H) ≤ h_max and min(H) ≥ h_min, up to `tolerance_mm` (what the process can resolve).
+pub fn violations(
+    deposit: &[f64],
+    layer: &[usize],
+    generator: &[usize],
+    h_min: f64,
+    h_max: f64,
+    tolerance_mm: f64,
+) -> Vec<Violation> {
+    deposit
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &h)| {
+            let bound = if h < h_min - tolerance_mm {
+                h_min
+            } else if h > h_max + tolerance_mm {
+                h_max
+            } else {
+                return None;
+            };
+            Some(Violation {
+                point: i,
+                layer: layer[i],
+                generator: generator[i],
+                deposit_mm: h,
+                bound_mm: bound,
+            })
+        })
+        .collect()
+}

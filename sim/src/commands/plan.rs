@@ -1,0 +1,254 @@
+//! `waamtwin plan SCENARIO -o DIR [--strategy ctpp|planar]`: plan.json, generators.csv, path.csv.
+
+use crate::cli::Strategy;
+use crate::error::{Error, Result};
+use crate::output::RunDir;
+use crate::part::load_part;
+use crate::progress::Stage;
+use crate::scenario::Scenario;
+use bead_model::eq7;
+use planner::mesh::Part;
+use planner::plan::{Plan, PlanParams, plan, range};
+use planner::planar;
+use serde_json::{Value, json};
+use std::fmt::Write;
+use std::path::Path;
+
+/// Violations listed in plan.json; the total is always given.
+const MAX_LISTED_VIOLATIONS: usize = 1000;
+
+pub fn params(s: &Scenario) -> PlanParams {
+    let p = &s.process;
+    PlanParams {
+        n_points: s.planner.n_points,
+        gap_max_mm: s.planner.gap_max_mm,
+        deposit_mm: p.deposit_m * 1e3,
+        deposit_min_mm: p.deposit_min_m * 1e3,
+        deposit_max_mm: p.deposit_max_m * 1e3,
+        tolerance_mm: s.planner.deposit_tolerance_mm,
+        nozzle: s.planner.nozzle,
+    }
+}
+
+/// Plan a scenario's part (CTPP). Errors of the part's shape (branching, too short) are input errors.
+pub fn plan_part(s: &Scenario, part: &Part) -> Result<Plan> {
+    let _stage = Stage::start("planning the spiral");
+    plan(part, &params(s)).map_err(|e| Error::input(format!("plan: {e}")))
+}
+
+pub fn run(scenario: &Path, out: &Path, strategy: Strategy) -> Result<String> {
+    let s = Scenario::load(scenario)?;
+    let part = load_part(&s.part)?;
+    let mut dir = RunDir::create(out)?;
+    let line = match strategy {
+        Strategy::Ctpp => {
+            let pl = plan_part(&s, &part)?;
+            write_plan(&mut dir, &s, &pl)?;
+            summary(&pl)
+        }
+        Strategy::Planar => write_planar(&mut dir, &s, &part)?,
+    };
+    dir.finish("plan", s.to_json())?;
+    Ok(line)
+}
+
+pub fn summary(pl: &Plan) -> String {
+    let (lo, hi) = pl.deposit_range();
+    format!(
+        "{} part: {} generators ({} filled), {} revolutions, deposits {lo:.3}..{hi:.3} mm, {} ({} violations)",
+        pl.kind.as_str(),
+        pl.generators.len(),
+        pl.n_filled,
+        pl.spiral.n_revolutions(),
+        if pl.feasible() {
+            "feasible"
+        } else {
+            "not feasible"
+        },
+        pl.violations.len()
+    )
+}
+
+/// plan.json, generators.csv and path.csv of a CTPP plan.
+pub fn write_plan(dir: &mut RunDir, s: &Scenario, pl: &Plan) -> Result<()> {
+    dir.write_json("plan.json", &plan_json(s, pl))?;
+    dir.write("generators.csv", generators_csv(pl).as_bytes())?;
+    dir.write("path.csv", path_csv(s, pl).as_bytes())?;
+    Ok(())
+}
+
+fn minmax(lo: f64, hi: f64) -> Value {
+    json!({"min": lo, "max": hi})
+}
+
+pub fn plan_json(s: &Scenario, pl: &Plan) -> Value {
+    let p = params(s);
+    let (glo, ghi) = pl.generator_length_range();
+    let (dlo, dhi) = pl.deposit_range();
+    let (slo, shi) = range(pl.points.iter().map(|q| q.step_mm));
+    let last_gen = pl.generators.len() - 1;
+    let seam = |g: usize| g == 0 || g == last_gen;
+    let violations: Vec<Value> = pl
+        .violations
+        .iter()
+        .take(MAX_LISTED_VIOLATIONS)
+        .map(|v| {
+            json!({"i": v.point, "layer": v.layer, "generator": v.generator, "deposit_mm": v.deposit_mm, "bound_mm": v.bound_mm, "seam": seam(v.generator)})
+        })
+        .collect();
+    let outside = pl
+        .points
+        .iter()
+        .filter(|q| {
+            q.deposit_mm < p.deposit_min_mm - p.tolerance_mm
+                || q.deposit_mm > p.deposit_max_mm + p.tolerance_mm
+        })
+        .count();
+    json!({
+        "strategy": "ctpp",
+        "part_kind": pl.kind.as_str(),
+        "n_generators": pl.generators.len(),
+        "n_filled": pl.n_filled,
+        "n_step_layers": pl.spiral.start_up.n_step_layers(),
+        "n_layers": pl.spiral.n_layers,
+        "n_revolutions": pl.spiral.n_revolutions(),
+        "n_points": pl.points.len(),
+        "generator_length_mm": minmax(glo, ghi),
+        "deposit_mm": minmax(dlo, dhi),
+        "step_along_generator_mm": minmax(slo, shi),
+        "deposit_share_outside": outside as f64 / pl.points.len().max(1) as f64,
+        "closing_point_mm": pl.closing_point.map(|c| json!([c.x, c.y, c.z])),
+        "feasible": pl.feasible(),
+        "feasible_along_generators": slo >= p.deposit_min_mm - 1e-9 && shi <= p.deposit_max_mm + 1e-9,
+        "violations_total": pl.violations.len(),
+        "violations_at_seam": pl.violations.iter().filter(|v| seam(v.generator)).count(),
+        "violations": violations,
+        "deviation_mm": {"min": pl.deviation.min_mm, "max": pl.deviation.max_mm, "rms": pl.deviation.rms_mm},
+        "collisions": {"detected": pl.collisions.len(), "resolved": 0, "unresolved": pl.collisions.len()},
+    })
+}
+
+fn generators_csv(pl: &Plan) -> String {
+    let mut csv = String::from("id,filled,length_mm,x0,y0,z0,x1,y1,z1\n");
+    for (i, g) in pl.generators.iter().enumerate() {
+        let (a, b) = (g.start(), g.end());
+        let _ = writeln!(
+            csv,
+            "{i},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            u8::from(g.filled),
+            g.length(),
+            a.x,
+            a.y,
+            a.z,
+            b.x,
+            b.y,
+            b.z
+        );
+    }
+    csv
+}
+
+/// One row per path point; the wire feed from Eq.7 at the scenario's constant travel speed.
+fn path_csv(s: &Scenario, pl: &Plan) -> String {
+    let p = &s.process;
+    let mut csv = String::from(
+        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s\n",
+    );
+    let mut t = 0.0;
+    for (i, q) in pl.points.iter().enumerate() {
+        if i > 0 {
+            t += (q.position - pl.points[i - 1].position).norm() * 1e-3 / p.travel_speed_m_s;
+        }
+        let wfs = eq7::wire_feed(
+            q.deposit_mm * 1e-3,
+            p.wire_diameter_m,
+            p.bead_width_m,
+            p.travel_speed_m_s,
+        ) * 60.0;
+        let _ = writeln!(
+            csv,
+            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{:.5},{:.6},{:.3},{:.3},0",
+            q.position.x,
+            q.position.y,
+            q.position.z,
+            q.tool.x,
+            q.tool.y,
+            q.tool.z,
+            q.layer,
+            q.generator,
+            q.deposit_mm,
+            wfs,
+            p.travel_speed_m_s * 1e3,
+            t
+        );
+    }
+    csv
+}
+
+/// The planar baseline: slices every h, the local deposit each asks for, and the top remainder.
+fn write_planar(dir: &mut RunDir, s: &Scenario, part: &Part) -> Result<String> {
+    let p = params(s);
+    let sl = planar::slice(part, p.deposit_mm);
+    let all: Vec<f64> = sl.all_deposits().collect();
+    let (lo, hi) = range(all.iter().copied());
+    let inside =
+        |d: f64| d >= p.deposit_min_mm - p.tolerance_mm && d <= p.deposit_max_mm + p.tolerance_mm;
+    let outside = all.iter().filter(|&&d| !inside(d)).count();
+    let c = part.lower_loop().centroid;
+    let mut csv = String::from(
+        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s\n",
+    );
+    let mut i = 0;
+    for (k, layer) in sl.layers.iter().enumerate() {
+        let mut order: Vec<usize> = (0..layer.points.len()).collect();
+        let ang = |j: usize| (layer.points[j].y - c.y).atan2(layer.points[j].x - c.x);
+        order.sort_by(|&a, &b| ang(a).total_cmp(&ang(b)));
+        for j in order {
+            let q = layer.points[j];
+            let d = layer.deposit_mm[j];
+            let wfs = eq7::wire_feed(
+                d * 1e-3,
+                s.process.wire_diameter_m,
+                s.process.bead_width_m,
+                s.process.travel_speed_m_s,
+            ) * 60.0;
+            let _ = writeln!(
+                csv,
+                "{i},{:.4},{:.4},{:.4},0,0,1,{k},-1,{d:.5},{wfs:.6},{:.3},,0",
+                q.x,
+                q.y,
+                q.z,
+                s.process.travel_speed_m_s * 1e3
+            );
+            i += 1;
+        }
+    }
+    let json = json!({
+        "strategy": "planar",
+        "part_kind": part.kind.as_str(),
+        "n_generators": 0,
+        "n_filled": 0,
+        "n_step_layers": 0,
+        "n_layers": sl.layers.len(),
+        "generator_length_mm": Value::Null,
+        "deposit_mm": minmax(lo, hi),
+        "deposit_share_outside": outside as f64 / all.len().max(1) as f64,
+        "top_deposit_mm": minmax(range(sl.top_deposit_mm.iter().copied()).0, range(sl.top_deposit_mm.iter().copied()).1),
+        "closing_point_mm": Value::Null,
+        "feasible": outside == 0,
+        "violations_total": outside,
+        "violations": [],
+        "deviation_mm": Value::Null,
+        "collisions": {"detected": Value::Null, "resolved": Value::Null, "unresolved": Value::Null},
+    });
+    dir.write_json("plan.json", &json)?;
+    dir.write("generators.csv", b"id,filled,length_mm,x0,y0,z0,x1,y1,z1\n")?;
+    dir.write("path.csv", csv.as_bytes())?;
+    Ok(format!(
+        "planar: {} layers, deposits {lo:.3}..{hi:.3} mm, {:.1} % outside [{}, {}]",
+        sl.layers.len(),
+        100.0 * outside as f64 / all.len().max(1) as f64,
+        p.deposit_min_mm,
+        p.deposit_max_mm
+    ))
+}
