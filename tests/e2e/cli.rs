@@ -4,7 +4,7 @@ use crate::{root, scratch, waamtwin};
 
 #[test]
 fn every_subcommand_has_help() {
-    for cmd in ["inspect", "geodesic", "mesh", "demo"] {
+    for cmd in ["inspect", "geodesic", "plan", "mesh", "demo"] {
         let out = waamtwin(&[cmd, "--help"]);
         assert!(out.status.success(), "{cmd} --help");
         assert!(
@@ -37,6 +37,9 @@ fn demo_writes_a_manifest_listing_its_files() {
         assert!(!m[key].is_null(), "manifest lacks {key}");
     }
     assert_eq!(m["scenario"]["part"]["shape"], "hemisphere");
+    for f in ["plan.json", "path.csv", "generators.csv"] {
+        assert!(dir.join(f).is_file(), "demo lacks {f}");
+    }
     for f in m["files"].as_array().unwrap() {
         assert!(
             dir.join(f.as_str().unwrap()).is_file(),
@@ -124,4 +127,128 @@ fn geodesic_command_writes_distance_per_vertex() {
         ]),
         &["vertex:7,x", "'x' is not a vertex index"],
     );
+}
+
+fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    (
+        header,
+        lines
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect(),
+    )
+}
+
+#[test]
+fn plan_writes_the_contract_files() {
+    let dir = scratch("plan_cmd");
+    let scenario = root().join("scenarios/tilted_cylinder.toml");
+    let out = waamtwin(&[
+        "plan",
+        scenario.to_str().unwrap(),
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plan: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("plan.json")).unwrap()).unwrap();
+    for key in [
+        "part_kind",
+        "n_generators",
+        "n_filled",
+        "n_step_layers",
+        "n_layers",
+        "generator_length_mm",
+        "deposit_mm",
+        "closing_point_mm",
+        "feasible",
+        "violations",
+        "deviation_mm",
+        "collisions",
+    ] {
+        assert!(plan.get(key).is_some(), "plan.json lacks {key}");
+    }
+    assert_eq!(plan["part_kind"], "open");
+    assert_eq!(plan["n_step_layers"], 6);
+    let (header, rows) = read_csv(&dir.join("path.csv"));
+    assert_eq!(
+        header.join(","),
+        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s"
+    );
+    assert_eq!(rows.len() as u64, plan["n_points"].as_u64().unwrap());
+    // Eq.7 per point at constant travel speed: WFS = 4·W·TS·LH / (π d²), to 1e-9 relative.
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let mut t_prev = -1.0;
+    for r in &rows {
+        let lh: f64 = r[col("deposit_mm")].parse().unwrap();
+        let wfs: f64 = r[col("wfs_m_min")].parse().unwrap();
+        let ts: f64 = r[col("travel_mm_s")].parse().unwrap();
+        let expected = 4.0 * 5.0 * ts * lh / std::f64::consts::PI * 60.0 / 1000.0;
+        assert!(
+            (wfs - expected).abs() <= 1e-9 * expected,
+            "{wfs} vs {expected}"
+        );
+        let t: f64 = r[col("t_s")].parse().unwrap();
+        assert!(t >= t_prev, "time runs forward");
+        t_prev = t;
+        let tool: Vec<f64> = ["tool_x", "tool_y", "tool_z"]
+            .iter()
+            .map(|c| r[col(c)].parse::<f64>().unwrap())
+            .collect();
+        assert!((tool.iter().map(|x| x * x).sum::<f64>().sqrt() - 1.0).abs() < 1e-5);
+    }
+    let (gh, grows) = read_csv(&dir.join("generators.csv"));
+    assert_eq!(gh.join(","), "id,filled,length_mm,x0,y0,z0,x1,y1,z1");
+    assert_eq!(grows.len() as u64, plan["n_generators"].as_u64().unwrap());
+
+    let planar = scratch("plan_planar");
+    let vase = root().join("scenarios/vase.toml");
+    let out = waamtwin(&[
+        "plan",
+        vase.to_str().unwrap(),
+        "-o",
+        planar.to_str().unwrap(),
+        "--strategy",
+        "planar",
+    ]);
+    assert!(out.status.success());
+    let p: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(planar.join("plan.json")).unwrap()).unwrap();
+    assert_eq!(p["strategy"], "planar");
+    assert_eq!(p["feasible"], false);
+}
+
+#[test]
+fn plan_of_a_branching_part_is_an_input_error() {
+    let dir = scratch("plan_branch");
+    let mut m = planner::shapes::Shape::Disk { radius_mm: 60.0 }.mesh(2.0);
+    m.map_positions(|p| {
+        let bump = |cx: f64| (-((p.x - cx).powi(2) + p.y * p.y) / 300.0).exp();
+        let rim = 1.0 - (p.x * p.x + p.y * p.y) / 3600.0;
+        planner::nalgebra::Point3::new(
+            p.x,
+            p.y,
+            60.0 * (bump(-25.0) + bump(25.0)) * rim + 20.0 * rim,
+        )
+    });
+    std::fs::write(
+        dir.join("humps.stl"),
+        planner::io::write_stl(&m, planner::io::Encoding::Binary),
+    )
+    .unwrap();
+    std::fs::write(dir.join("s.toml"), "[part]\nmesh = \"humps.stl\"\n").unwrap();
+    let out = waamtwin(&[
+        "plan",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    crate::assert_input_error(&out, &["plan:", "branches", "z ≈"]);
+    assert!(!dir.join("out/plan.json").exists());
 }

@@ -24,6 +24,9 @@ pub fn demo(out: &Path) -> Result<()> {
         &write_mesh(&part.mesh, MeshFormat::Stl, Encoding::Binary),
     )?;
     dir.write_json("mesh.json", &super::inspect::report("part.stl", &part))?;
+    let plan = super::plan::plan_part(&scenario, &part)?;
+    super::plan::write_plan(&mut dir, &scenario, &plan)?;
+    println!("{}", super::plan::summary(&plan));
     dir.finish("demo", scenario.to_json())?;
     Ok(())
 }

@@ -149,6 +149,8 @@ fn generators_csv(pl: &Plan) -> String {
 }
 
 /// One row per path point; the wire feed from Eq.7 at the scenario's constant travel speed.
+/// Deposit and wire feed are written at full (round-trip) precision so that Eq.7 can be checked
+/// from the file.
 fn path_csv(s: &Scenario, pl: &Plan) -> String {
     let p = &s.process;
     let mut csv = String::from(
@@ -167,7 +169,7 @@ fn path_csv(s: &Scenario, pl: &Plan) -> String {
         ) * 60.0;
         let _ = writeln!(
             csv,
-            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{:.5},{:.6},{:.3},{:.3},0",
+            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{:.3},{:.3},0",
             q.position.x,
             q.position.y,
             q.position.z,
