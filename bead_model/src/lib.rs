@@ -1,6 +1,13 @@
 //! # bead_model
 //!
-//! The bead the arc lays: how the machine's settings make a deposit of a given height (Eq.7 of
-//! the CTPP paper), in SI units. Pure functions of plain numbers; no geometry, no files.
+//! The bead the arc lays, in SI units: what the machine must do to lay a planned deposit (Eq.7 of
+//! the CTPP paper, both ways), which deposits its limits allow (the process window), how much heat
+//! that puts in, whether surface tension holds the pool (the Bond number), and what comes out when
+//! the metal underneath is hot. Pure functions of plain numbers; no geometry, no files.
 
+pub mod as_built;
+pub mod bond;
 pub mod eq7;
+pub mod heat_input;
+pub mod section;
+pub mod window;

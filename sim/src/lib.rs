@@ -4,6 +4,7 @@
 //! `waamtwin` command. This is the only crate that touches files; the models take and return
 //! plain data.
 
+pub mod beads;
 pub mod cli;
 pub mod commands;
 pub mod error;

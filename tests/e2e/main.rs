@@ -1,5 +1,6 @@
 //! End-to-end tests: the `waamtwin` binary on scenarios and meshes, one module per area.
 
+mod bead;
 mod cli;
 mod ctpp;
 mod inspect;

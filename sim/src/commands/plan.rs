@@ -1,5 +1,6 @@
 //! `waamtwin plan SCENARIO -o DIR [--strategy ctpp|planar]`: plan.json, generators.csv, path.csv.
 
+use crate::beads::{Beads, beads};
 use crate::cli::Strategy;
 use crate::error::{Error, Result};
 use crate::output::RunDir;
@@ -7,6 +8,7 @@ use crate::part::load_part;
 use crate::progress::Stage;
 use crate::scenario::Scenario;
 use bead_model::eq7;
+use bead_model::window::Modulation;
 use planner::mesh::Part;
 use planner::plan::{Plan, PlanParams, plan, range};
 use planner::planar;
@@ -71,10 +73,44 @@ pub fn summary(pl: &Plan) -> String {
 
 /// plan.json, generators.csv and path.csv of a CTPP plan.
 pub fn write_plan(dir: &mut RunDir, s: &Scenario, pl: &Plan) -> Result<()> {
-    dir.write_json("plan.json", &plan_json(s, pl))?;
+    let b = beads(s, pl);
+    let mut json = plan_json(s, pl);
+    json["bead"] = bead_json(s, pl, &b);
+    dir.write_json("plan.json", &json)?;
     dir.write("generators.csv", generators_csv(pl).as_bytes())?;
-    dir.write("path.csv", path_csv(s, pl).as_bytes())?;
+    dir.write("path.csv", path_csv(pl, &b).as_bytes())?;
     Ok(())
+}
+
+fn bead_json(s: &Scenario, pl: &Plan, b: &Beads) -> Value {
+    let r = |f: &dyn Fn(&crate::beads::Bead) -> f64| {
+        let (lo, hi) = range(b.beads.iter().map(f));
+        minmax(lo, hi)
+    };
+    let listed: Vec<Value> = b
+        .outside_window
+        .iter()
+        .take(MAX_LISTED_VIOLATIONS)
+        .map(|&i| {
+            let q = &pl.points[i];
+            json!({"i": i, "layer": q.layer, "generator": q.generator, "deposit_mm": q.deposit_mm})
+        })
+        .collect();
+    json!({
+        "modulation": match s.process.modulation { Modulation::WireFeed { .. } => "wire_feed", Modulation::TravelSpeed { .. } => "travel_speed" },
+        "section": format!("{:?}", s.process.section).to_lowercase(),
+        "window_deposit_mm": minmax(b.window_m.0 * 1e3, b.window_m.1 * 1e3),
+        "window_violations_total": b.outside_window.len(),
+        "window_violations": listed,
+        "wfs_m_min": r(&|x| x.wfs_m_s * 60.0),
+        "travel_mm_s": r(&|x| x.travel_m_s * 1e3),
+        "arc_power_w": r(&|x| x.power_w),
+        "heat_input_j_mm": r(&|x| x.heat_j_m * 1e-3),
+        "bond_number": r(&|x| x.bond),
+        "bond_max": s.bead.bond_max,
+        "bond_over_max": b.beads.iter().filter(|x| x.bond > s.bead.bond_max).count(),
+        "tilt_from_vertical_deg": r(&|x| x.tilt_rad.to_degrees()),
+    })
 }
 
 fn minmax(lo: f64, hi: f64) -> Value {
@@ -148,28 +184,21 @@ fn generators_csv(pl: &Plan) -> String {
     csv
 }
 
-/// One row per path point; the wire feed from Eq.7 at the scenario's constant travel speed.
+/// One row per path point: wire feed and travel speed from Eq.7 under the scenario's modulation.
 /// Deposit and wire feed are written at full (round-trip) precision so that Eq.7 can be checked
 /// from the file.
-fn path_csv(s: &Scenario, pl: &Plan) -> String {
-    let p = &s.process;
+fn path_csv(pl: &Plan, b: &Beads) -> String {
     let mut csv = String::from(
         "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s\n",
     );
     let mut t = 0.0;
-    for (i, q) in pl.points.iter().enumerate() {
+    for (i, (q, bead)) in pl.points.iter().zip(&b.beads).enumerate() {
         if i > 0 {
-            t += (q.position - pl.points[i - 1].position).norm() * 1e-3 / p.travel_speed_m_s;
+            t += (q.position - pl.points[i - 1].position).norm() * 1e-3 / bead.travel_m_s;
         }
-        let wfs = eq7::wire_feed(
-            q.deposit_mm * 1e-3,
-            p.wire_diameter_m,
-            p.bead_width_m,
-            p.travel_speed_m_s,
-        ) * 60.0;
         let _ = writeln!(
             csv,
-            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{:.3},{:.3},0",
+            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{},{:.3},0",
             q.position.x,
             q.position.y,
             q.position.z,
@@ -179,8 +208,8 @@ fn path_csv(s: &Scenario, pl: &Plan) -> String {
             q.layer,
             q.generator,
             q.deposit_mm,
-            wfs,
-            p.travel_speed_m_s * 1e3,
+            bead.wfs_m_s * 60.0,
+            bead.travel_m_s * 1e3,
             t
         );
     }

@@ -7,6 +7,10 @@ mod raw;
 pub use raw::*;
 
 use crate::error::{Error, Result};
+use bead_model::as_built::HotMetalLaw;
+use bead_model::heat_input::{ArcPower, SynergicLine};
+use bead_model::section::Section;
+use bead_model::window::{Modulation, Window};
 use planner::mesh::LowerLoop;
 use planner::shapes::Shape;
 use std::fmt::Display;
@@ -32,6 +36,9 @@ pub struct PartSpec {
 /// Deposition process, SI.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Process {
+    pub modulation: Modulation,
+    pub power: ArcPower,
+    pub section: Section,
     pub wire_diameter_m: f64,
     pub bead_width_m: f64,
     pub travel_speed_m_s: f64,
@@ -100,6 +107,28 @@ pub struct DwellSettings {
     pub interpass_max_k: f64,
 }
 
+/// Bead-model settings beyond the process: risk threshold and the hot-metal law.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BeadSettings {
+    pub bond_max: f64,
+    pub hot_metal: HotMetalLaw,
+    pub stickout_m: f64,
+}
+
+impl Process {
+    /// The machine limits as a process window.
+    pub fn window(&self) -> Window {
+        Window {
+            wire_diameter: self.wire_diameter_m,
+            width: self.bead_width_m,
+            wfs_min: self.wfs_min_m_s,
+            wfs_max: self.wfs_max_m_s,
+            travel_min: self.travel_min_m_s,
+            travel_max: self.travel_max_m_s,
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlannerSettings {
     pub n_points: usize,
@@ -116,6 +145,7 @@ pub struct Scenario {
     pub thermal: ThermalSettings,
     pub dwell: DwellSettings,
     pub planner: PlannerSettings,
+    pub bead: BeadSettings,
     pub output: RawOutput,
     /// The resolved input, echoed into `manifest.json`.
     pub raw: RawScenario,
@@ -201,7 +231,84 @@ impl Scenario {
         if p.efficiency == 0.0 {
             return Err(c.fail("process", "efficiency", 0.0, "in (0, 1]"));
         }
+        let modulation = match p.modulation.as_str() {
+            "wire_feed" => Modulation::WireFeed {
+                travel: p.travel_speed_mm_s * MM,
+            },
+            "travel_speed" => {
+                let wfs = match p.wfs_m_min {
+                    Some(w) => {
+                        c.positive("process", "wfs_m_min", w, 50.0)?;
+                        w * M_MIN
+                    }
+                    None => bead_model::eq7::wire_feed(
+                        p.deposit_mm * MM,
+                        p.wire_diameter_mm * MM,
+                        p.bead_width_mm * MM,
+                        p.travel_speed_mm_s * MM,
+                    ),
+                };
+                Modulation::TravelSpeed { wfs }
+            }
+            other => {
+                return Err(c.fail(
+                    "process",
+                    "modulation",
+                    format!("\"{other}\""),
+                    "\"wire_feed\" or \"travel_speed\"",
+                ));
+            }
+        };
+        let power = match p.power_model.as_str() {
+            "fixed" => ArcPower::Fixed {
+                watts: p.arc_power_w,
+            },
+            "synergic" => {
+                let line = match (
+                    &p.synergic_wfs_m_min,
+                    &p.synergic_current_a,
+                    &p.synergic_voltage_v,
+                ) {
+                    (None, None, None) => SynergicLine::g3si_cmt_1mm(),
+                    (Some(w), Some(i), Some(u)) => SynergicLine {
+                        wfs: w.iter().map(|x| x * M_MIN).collect(),
+                        current_a: i.clone(),
+                        voltage_v: u.clone(),
+                    },
+                    _ => {
+                        return Err(c.fail("process", "synergic_wfs_m_min", "(incomplete)", "all three of synergic_wfs_m_min, synergic_current_a, synergic_voltage_v, or none"));
+                    }
+                };
+                line.validate()
+                    .map_err(|e| c.fail("process", "synergic_wfs_m_min", "(table)", &e))?;
+                ArcPower::Synergic(line)
+            }
+            other => {
+                return Err(c.fail(
+                    "process",
+                    "power_model",
+                    format!("\"{other}\""),
+                    "\"fixed\" or \"synergic\"",
+                ));
+            }
+        };
+        let section = match p.bead_section.as_str() {
+            "rectangle" => Section::Rectangle,
+            "parabolic" => Section::Parabolic,
+            "circular" => Section::Circular,
+            other => {
+                return Err(c.fail(
+                    "process",
+                    "bead_section",
+                    format!("\"{other}\""),
+                    "\"rectangle\", \"parabolic\" or \"circular\"",
+                ));
+            }
+        };
         let process = Process {
+            modulation,
+            power,
+            section,
             wire_diameter_m: p.wire_diameter_mm * MM,
             bead_width_m: p.bead_width_mm * MM,
             travel_speed_m_s: p.travel_speed_mm_s * MM,
@@ -323,6 +430,34 @@ impl Scenario {
                 length_mm: pl.nozzle_length_mm,
             },
         };
+        let b = &raw.bead;
+        c.positive("bead", "bond_max", b.bond_max, 100.0)?;
+        c.range(
+            "bead",
+            "hot_height_loss_per_k",
+            b.hot_height_loss_per_k,
+            0.0,
+            0.01,
+            "between 0 and 0.01 per K",
+        )?;
+        c.range(
+            "bead",
+            "hot_reference_c",
+            b.hot_reference_c,
+            -50.0,
+            1500.0,
+            "between -50 and 1500",
+        )?;
+        c.positive("bead", "stickout_mm", b.stickout_mm, 100.0)?;
+        let bead = BeadSettings {
+            bond_max: b.bond_max,
+            hot_metal: HotMetalLaw {
+                reference_k: b.hot_reference_c + KELVIN,
+                height_loss_per_k: b.hot_height_loss_per_k,
+                min_factor: 0.5,
+            },
+            stickout_m: b.stickout_mm * MM,
+        };
         Ok(Scenario {
             part,
             process,
@@ -330,6 +465,7 @@ impl Scenario {
             thermal,
             dwell,
             planner,
+            bead,
             output: raw.output.clone(),
             raw,
         })

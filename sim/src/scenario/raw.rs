@@ -18,6 +18,8 @@ pub struct RawScenario {
     #[serde(default)]
     pub planner: RawPlanner,
     #[serde(default)]
+    pub bead: RawBead,
+    #[serde(default)]
     pub output: RawOutput,
 }
 
@@ -70,6 +72,21 @@ pub struct RawProcess {
     pub travel_max_mm_s: f64,
     pub arc_power_w: f64,
     pub efficiency: f64,
+    /// "wire_feed" (constant travel speed, the CTPP choice) or "travel_speed" (constant wire feed).
+    pub modulation: String,
+    /// The constant wire feed of "travel_speed" modulation; absent: Eq.7 at the nominal deposit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wfs_m_min: Option<f64>,
+    /// "fixed" (arc_power_w) or "synergic" (the synergic line below, or the G3Si CMT default).
+    pub power_model: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub synergic_wfs_m_min: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub synergic_current_a: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub synergic_voltage_v: Option<Vec<f64>>,
+    /// "rectangle" (Eq.7), "parabolic" or "circular".
+    pub bead_section: String,
 }
 
 impl Default for RawProcess {
@@ -87,6 +104,13 @@ impl Default for RawProcess {
             travel_max_mm_s: 25.0,
             arc_power_w: 2000.0,
             efficiency: 0.85,
+            modulation: "wire_feed".into(),
+            wfs_m_min: None,
+            power_model: "fixed".into(),
+            synergic_wfs_m_min: None,
+            synergic_current_a: None,
+            synergic_voltage_v: None,
+            bead_section: "rectangle".into(),
         }
     }
 }
@@ -201,6 +225,30 @@ impl Default for RawOutput {
             mcap: true,
             hdf5: true,
             plots: true,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawBead {
+    /// Bond numbers above this put the melt pool at risk (Radel et al. 2019: Bo < 1 holds).
+    pub bond_max: f64,
+    /// Hot-metal law: the bead's height drops by this share per kelvin of preheat above the
+    /// reference (0: off).
+    pub hot_height_loss_per_k: f64,
+    pub hot_reference_c: f64,
+    /// Contact tip to work distance as planned.
+    pub stickout_mm: f64,
+}
+
+impl Default for RawBead {
+    fn default() -> Self {
+        Self {
+            bond_max: 1.0,
+            hot_height_loss_per_k: 0.0,
+            hot_reference_c: 20.0,
+            stickout_mm: 15.0,
         }
     }
 }
