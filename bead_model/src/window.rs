@@ -81,13 +81,14 @@ mod tests {
         }
     }
 
-    /// By hand at 10 mm/s: LH = π·1·WFS/(4·5·10) mm with WFS in mm/s: 1.5 m/min → 0.3927 mm,
-    /// 10 m/min → 2.618 mm.
+    /// By hand at 10 mm/s: LH = π·1·WFS/(4·5·10) mm with WFS in mm/s: 1.5 m/min (25 mm/s) →
+    /// π/8 = 0.3927 mm, 10 m/min → 2.618 mm.
     #[test]
     fn heights_by_hand() {
         let (lo, hi) = window().heights(Modulation::WireFeed { travel: 10e-3 });
         assert!(
-            (lo * 1e3 - 0.392_699).abs() < 1e-6 && (hi * 1e3 - 2.617_994).abs() < 1e-6,
+            (lo * 1e3 - std::f64::consts::FRAC_PI_8).abs() < 1e-12
+                && (hi * 1e3 - 2.617_994).abs() < 1e-6,
             "{lo} {hi}"
         );
         // Constant 6 m/min: TS from 25 to 2 mm/s → LH from 0.6283 to 7.854 mm.
