@@ -1,0 +1,158 @@
+//! Thermal properties of the deposited metal, SI with temperatures in K.
+//!
+//! The state of a node is its specific enthalpy h (J/kg); temperature follows from h through the
+//! tabulated h(T) = ∫ c_p dT + L·f_liquid(T), with the latent heat released linearly between
+//! solidus and liquidus (an enthalpy method: energy is conserved exactly whatever the step).
+
+/// Temperature range of the tables, K.
+const T_MAX: f64 = 4000.0;
+const TABLE_STEP: f64 = 1.0;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub density: f64,
+    /// Specific heat c_p(T), J/(kg K), at `TABLE_STEP` intervals from 0 K.
+    cp: Vec<f64>,
+    /// Conductivity k(T), W/(m K), at the same temperatures.
+    k: Vec<f64>,
+    /// h(T) from 0 K, J/kg, including latent heat.
+    h: Vec<f64>,
+    pub solidus: f64,
+    pub liquidus: f64,
+    pub latent: f64,
+}
+
+impl Material {
+    /// Constant properties (verification mode); latent heat 0 unless given.
+    pub fn constant(density: f64, cp: f64, k: f64, melt: f64, latent: f64) -> Material {
+        Material::tabulate(density, |_| cp, |_| k, melt, melt + 1.0, latent)
+    }
+
+    /// Low-carbon steel (G3Si, ER70S-6 class), temperature-dependent: c_p and k of carbon steel
+    /// from Eurocode 3 (EN 1993-1-2 §3.4.1, valid 20–1200 °C, held constant above), solidus
+    /// 1740 K and liquidus 1790 K, latent heat 270 kJ/kg, density 7800 kg/m³ (Radel et al.
+    /// 2019). Sources and caveats in docs/PHYSICS.md.
+    pub fn g3si() -> Material {
+        Material::tabulate(7800.0, eurocode_cp, eurocode_k, 1740.0, 1790.0, 2.7e5)
+    }
+
+    fn tabulate(
+        density: f64,
+        cp: impl Fn(f64) -> f64,
+        k: impl Fn(f64) -> f64,
+        solidus: f64,
+        liquidus: f64,
+        latent: f64,
+    ) -> Material {
+        let n = (T_MAX / TABLE_STEP) as usize + 1;
+        let temps: Vec<f64> = (0..n).map(|i| i as f64 * TABLE_STEP).collect();
+        let cp: Vec<f64> = temps.iter().map(|&t| cp(t)).collect();
+        let k: Vec<f64> = temps.iter().map(|&t| k(t)).collect();
+        let liquid = |t: f64| ((t - solidus) / (liquidus - solidus)).clamp(0.0, 1.0);
+        let mut h = vec![0.0; n];
+        for i in 1..n {
+            // Trapezoid in c_p, exact in the linear latent release.
+            h[i] = h[i - 1]
+                + 0.5 * (cp[i] + cp[i - 1]) * TABLE_STEP
+                + latent * (liquid(temps[i]) - liquid(temps[i - 1]));
+        }
+        Material {
+            density,
+            cp,
+            k,
+            h,
+            solidus,
+            liquidus,
+            latent,
+        }
+    }
+
+    fn at(table: &[f64], t: f64) -> f64 {
+        let x = (t / TABLE_STEP).clamp(0.0, (table.len() - 1) as f64);
+        let i = (x as usize).min(table.len() - 2);
+        let f = x - i as f64;
+        table[i] + f * (table[i + 1] - table[i])
+    }
+
+    pub fn enthalpy(&self, t: f64) -> f64 {
+        Material::at(&self.h, t)
+    }
+
+    pub fn conductivity(&self, t: f64) -> f64 {
+        Material::at(&self.k, t)
+    }
+
+    pub fn specific_heat(&self, t: f64) -> f64 {
+        Material::at(&self.cp, t)
+    }
+
+    /// Apparent heat capacity dh/dT over [t, t + 1 K]: c_p plus latent heat in the mushy range.
+    pub fn apparent_heat(&self, t: f64) -> f64 {
+        (self.enthalpy(t + TABLE_STEP) - self.enthalpy(t)) / TABLE_STEP
+    }
+
+    /// Temperature of specific enthalpy `h` (inverse of the monotone table).
+    pub fn temperature(&self, h: f64) -> f64 {
+        let i = self.h.partition_point(|&x| x < h);
+        if i == 0 {
+            return 0.0;
+        }
+        if i >= self.h.len() {
+            let last = self.h.len() - 1;
+            return last as f64 * TABLE_STEP + (h - self.h[last]) / self.cp[last];
+        }
+        let (a, b) = (self.h[i - 1], self.h[i]);
+        ((i - 1) as f64 + (h - a) / (b - a)) * TABLE_STEP
+    }
+
+    pub fn diffusivity(&self, t: f64) -> f64 {
+        self.conductivity(t) / (self.density * self.specific_heat(t))
+    }
+}
+
+/// EN 1993-1-2 §3.4.1.2: specific heat of carbon steel, J/(kg K), T in K (formula in °C).
+fn eurocode_cp(t: f64) -> f64 {
+    let c = (t - 273.15).clamp(20.0, 1200.0);
+    if c < 600.0 {
+        425.0 + 7.73e-1 * c - 1.69e-3 * c * c + 2.22e-6 * c * c * c
+    } else if c < 735.0 {
+        666.0 + 13002.0 / (738.0 - c)
+    } else if c < 900.0 {
+        545.0 + 17820.0 / (c - 731.0)
+    } else {
+        650.0
+    }
+}
+
+/// EN 1993-1-2 §3.4.1.3: thermal conductivity of carbon steel, W/(m K).
+fn eurocode_k(t: f64) -> f64 {
+    let c = (t - 273.15).clamp(20.0, 1200.0);
+    if c < 800.0 { 54.0 - 3.33e-2 * c } else { 27.3 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eurocode_values() {
+        // EN 1993-1-2 at 20 °C: c = 439.8 J/kgK, λ = 53.3 W/mK; peak near 735 °C: 5000 J/kgK.
+        assert!((eurocode_cp(293.15) - 439.8).abs() < 0.1);
+        assert!((eurocode_k(293.15) - 53.334).abs() < 1e-9);
+        assert!((eurocode_cp(735.0 + 273.15) - 5000.0).abs() < 10.0);
+        assert_eq!(eurocode_k(1000.0 + 273.15), 27.3);
+    }
+
+    #[test]
+    fn enthalpy_round_trip_and_latent_heat() {
+        let m = Material::g3si();
+        for t in [300.0, 800.0, 1000.0, 1745.0, 1785.0, 2000.0, 3500.0] {
+            assert!((m.temperature(m.enthalpy(t)) - t).abs() < 1e-6, "{t}");
+        }
+        let jump = m.enthalpy(1790.0) - m.enthalpy(1740.0);
+        assert!((jump - 2.7e5 - 650.0 * 50.0).abs() < 1.0, "{jump}");
+        let c = Material::constant(7800.0, 480.0, 52.416, 1700.0, 0.0);
+        assert!((c.enthalpy(1000.0) - c.enthalpy(500.0) - 480.0 * 500.0).abs() < 1e-6);
+        assert!((c.diffusivity(500.0) - 14e-6).abs() < 1e-12);
+    }
+}
