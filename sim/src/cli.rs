@@ -41,6 +41,12 @@ pub enum Command {
         #[arg(long, value_enum, default_value_t = Strategy::Ctpp)]
         strategy: Strategy,
     },
+    /// Plan, beads and the heat of the build without dwells: thermal.json, layers.csv.
+    Simulate {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+    },
     /// Write a scenario's part (a library shape or a mesh file) as a welded STL, OBJ or PLY mesh.
     Mesh {
         scenario: PathBuf,

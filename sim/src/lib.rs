@@ -7,6 +7,7 @@
 pub mod beads;
 pub mod cli;
 pub mod commands;
+pub mod deposition;
 pub mod error;
 pub mod output;
 pub mod part;
@@ -40,6 +41,10 @@ pub fn run(cli: cli::Cli) -> Result<()> {
         } => {
             let line = commands::plan::run(&scenario, &out, strategy)?;
             println!("{line}");
+            Ok(())
+        }
+        Command::Simulate { scenario, out } => {
+            println!("{}", commands::simulate::run(&scenario, &out)?);
             Ok(())
         }
         Command::Mesh { scenario, out } => {

@@ -4,7 +4,7 @@ use crate::{root, scratch, waamtwin};
 
 #[test]
 fn every_subcommand_has_help() {
-    for cmd in ["inspect", "geodesic", "plan", "mesh", "demo"] {
+    for cmd in ["inspect", "geodesic", "plan", "simulate", "mesh", "demo"] {
         let out = waamtwin(&[cmd, "--help"]);
         assert!(out.status.success(), "{cmd} --help");
         assert!(
@@ -37,7 +37,13 @@ fn demo_writes_a_manifest_listing_its_files() {
         assert!(!m[key].is_null(), "manifest lacks {key}");
     }
     assert_eq!(m["scenario"]["part"]["shape"], "hemisphere");
-    for f in ["plan.json", "path.csv", "generators.csv"] {
+    for f in [
+        "plan.json",
+        "path.csv",
+        "generators.csv",
+        "thermal.json",
+        "layers.csv",
+    ] {
         assert!(dir.join(f).is_file(), "demo lacks {f}");
     }
     for f in m["files"].as_array().unwrap() {

@@ -5,6 +5,7 @@ mod cli;
 mod ctpp;
 mod inspect;
 mod scenarios;
+mod thermal;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

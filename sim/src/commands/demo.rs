@@ -27,6 +27,9 @@ pub fn demo(out: &Path) -> Result<()> {
     let plan = super::plan::plan_part(&scenario, &part)?;
     super::plan::write_plan(&mut dir, &scenario, &plan)?;
     println!("{}", super::plan::summary(&plan));
+    let sim = super::simulate::simulate(&scenario, &plan, &[])?;
+    super::simulate::write_thermal(&mut dir, &scenario, &plan, &sim, &[])?;
+    println!("{}", super::simulate::summary(&scenario, &sim));
     dir.finish("demo", scenario.to_json())?;
     Ok(())
 }

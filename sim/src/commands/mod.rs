@@ -4,3 +4,4 @@ pub mod demo;
 pub mod geodesic;
 pub mod inspect;
 pub mod plan;
+pub mod simulate;

@@ -91,9 +91,17 @@ pub enum ThermalModel {
     Voxel,
 }
 
-/// Thermal boundary conditions, SI.
+/// Thermal boundary conditions and model settings, SI (K).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ThermalSettings {
+    pub table_contact_w_m2k: f64,
+    pub plate_cell_m: f64,
+    pub node_m: f64,
+    pub deposit_k: f64,
+    pub footprint_m: f64,
+    pub hot_threshold_k: f64,
+    /// Temperature-dependent G3Si tables, or the material's constants.
+    pub temperature_dependent: bool,
     pub model: ThermalModel,
     pub ambient_k: f64,
     pub convection_w_m2k: f64,
@@ -378,7 +386,69 @@ impl Scenario {
             1000.0,
             "between 0 and 1000",
         )?;
+        c.range(
+            "thermal",
+            "table_contact_w_m2k",
+            t.table_contact_w_m2k,
+            0.0,
+            1e5,
+            "between 0 and 100000",
+        )?;
+        c.range(
+            "thermal",
+            "plate_cell_mm",
+            t.plate_cell_mm,
+            0.5,
+            100.0,
+            "between 0.5 and 100",
+        )?;
+        c.range(
+            "thermal",
+            "node_mm",
+            t.node_mm,
+            0.1,
+            50.0,
+            "between 0.1 and 50",
+        )?;
+        c.range(
+            "thermal",
+            "deposit_c",
+            t.deposit_c,
+            500.0,
+            3000.0,
+            "between 500 and 3000",
+        )?;
+        c.range(
+            "thermal",
+            "hot_threshold_c",
+            t.hot_threshold_c,
+            0.0,
+            3000.0,
+            "between 0 and 3000",
+        )?;
+        if let Some(f) = t.footprint_mm {
+            c.positive("thermal", "footprint_mm", f, 100.0)?;
+        }
+        let temperature_dependent = match t.properties.as_str() {
+            "temperature" => true,
+            "constant" => false,
+            other => {
+                return Err(c.fail(
+                    "thermal",
+                    "properties",
+                    format!("\"{other}\""),
+                    "\"temperature\" or \"constant\"",
+                ));
+            }
+        };
         let thermal = ThermalSettings {
+            table_contact_w_m2k: t.table_contact_w_m2k,
+            plate_cell_m: t.plate_cell_mm * MM,
+            node_m: t.node_mm * MM,
+            deposit_k: t.deposit_c + KELVIN,
+            footprint_m: t.footprint_mm.unwrap_or(p.bead_width_mm) * MM,
+            hot_threshold_k: t.hot_threshold_c + KELVIN,
+            temperature_dependent,
             model,
             ambient_k: t.ambient_c + KELVIN,
             convection_w_m2k: t.convection_w_m2k,

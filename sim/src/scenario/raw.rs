@@ -153,6 +153,20 @@ pub struct RawThermal {
     pub emissivity: f64,
     pub plate_mm: [f64; 3],
     pub lead_mm: f64,
+    /// Contact conductance between the plate and the table.
+    pub table_contact_w_m2k: f64,
+    pub plate_cell_mm: f64,
+    /// Shortest thin-wall node along the bead.
+    pub node_mm: f64,
+    /// Temperature of the metal as it arrives.
+    pub deposit_c: f64,
+    /// Radius of the torch footprint; absent: the bead width.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub footprint_mm: Option<f64>,
+    /// Threshold of the per-point time-above count.
+    pub hot_threshold_c: f64,
+    /// "temperature" (G3Si tables) or "constant" (the material's constants).
+    pub properties: String,
 }
 
 impl Default for RawThermal {
@@ -164,6 +178,13 @@ impl Default for RawThermal {
             emissivity: 0.6,
             plate_mm: [250.0, 250.0, 10.0],
             lead_mm: 10.0,
+            table_contact_w_m2k: 100.0,
+            plate_cell_mm: 5.0,
+            node_mm: 3.0,
+            deposit_c: 1550.0,
+            footprint_mm: None,
+            hot_threshold_c: 600.0,
+            properties: "temperature".into(),
         }
     }
 }

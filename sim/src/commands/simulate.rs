@@ -1,0 +1,219 @@
+//! `waamtwin simulate SCENARIO -o DIR`: plan, beads, and the heat of the build without dwells;
+//! thermal.json and layers.csv beside the plan's files.
+
+use crate::beads::beads;
+use crate::deposition::{schedule, wall_settings};
+use crate::error::{Error, Result};
+use crate::output::RunDir;
+use crate::part::load_part;
+use crate::progress::Stage;
+use crate::scenario::{Scenario, ThermalModel};
+use planner::plan::Plan;
+use serde_json::json;
+use std::fmt::Write;
+use std::path::Path;
+use std::time::Instant;
+use thermal::schedule::Deposit;
+use thermal::wall::{WallModel, WallResult};
+
+const C: f64 = 273.15;
+
+/// A simulated build: the schedule and what the thermal model made of it.
+pub struct Simulation {
+    pub deposits: Vec<Deposit>,
+    pub result: WallResult,
+    pub wall_s: f64,
+}
+
+pub fn simulate(s: &Scenario, pl: &Plan, dwell_s: &[f64]) -> Result<Simulation> {
+    if s.thermal.model == ThermalModel::Voxel {
+        return Err(Error::input(
+            "thermal.model = \"voxel\": the voxel model runs only in the model comparison so far; use \"fe\"",
+        ));
+    }
+    let b = beads(s, pl);
+    let deposits = schedule(s, pl, &b, dwell_s);
+    let settings = wall_settings(s, &deposits, Vec::new());
+    let clock = Instant::now();
+    let _stage = Stage::start("simulating the heat of the build");
+    let model = WallModel::build(&deposits, &settings)
+        .map_err(|e| Error::input(format!("thermal: {e}")))?;
+    let result = model.run(&deposits, &settings, 0.0);
+    Ok(Simulation {
+        deposits,
+        result,
+        wall_s: clock.elapsed().as_secs_f64(),
+    })
+}
+
+pub fn run(scenario: &Path, out: &Path) -> Result<String> {
+    let s = Scenario::load(scenario)?;
+    let part = load_part(&s.part)?;
+    let mut dir = RunDir::create(out)?;
+    let pl = super::plan::plan_part(&s, &part)?;
+    let sim = simulate(&s, &pl, &[])?;
+    super::plan::write_plan(&mut dir, &s, &pl)?;
+    write_thermal(&mut dir, &s, &pl, &sim, &vec![0.0; pl.points.len()])?;
+    dir.finish("simulate", s.to_json())?;
+    Ok(summary(&s, &sim))
+}
+
+pub fn summary(s: &Scenario, sim: &Simulation) -> String {
+    let max = sim
+        .result
+        .points
+        .iter()
+        .map(|p| p.preheat)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let first = first_overheat(s, sim);
+    format!(
+        "build {:.0} s, max preheat {:.0} °C{}, energy balance {:.2e}, {:.1} s wall",
+        sim.deposits.last().map_or(0.0, |d| d.time),
+        max - C,
+        match first {
+            Some(i) => format!(
+                " (over {:.0} °C from point {i})",
+                s.dwell.interpass_max_k - C
+            ),
+            None => String::new(),
+        },
+        sim.result.balance_error,
+        sim.wall_s
+    )
+}
+
+pub fn first_overheat(s: &Scenario, sim: &Simulation) -> Option<usize> {
+    sim.result
+        .points
+        .iter()
+        .position(|p| p.preheat > s.dwell.interpass_max_k)
+}
+
+/// Per revolution: start, duration, preheat max and mean, dwell, risk.
+pub struct LayerRow {
+    pub layer: usize,
+    pub t_start_s: f64,
+    pub duration_s: f64,
+    pub preheat_max_k: f64,
+    pub preheat_mean_k: f64,
+    pub dwell_s: f64,
+}
+
+pub fn layers(pl: &Plan, sim: &Simulation, dwell_s: &[f64]) -> Vec<LayerRow> {
+    let mut rows: Vec<LayerRow> = Vec::new();
+    for (i, q) in pl.points.iter().enumerate() {
+        let d = &sim.deposits[i];
+        let pre = sim.result.points[i].preheat;
+        let dwell = dwell_s.get(i).copied().unwrap_or(0.0);
+        match rows.last_mut() {
+            Some(r) if r.layer == q.layer => {
+                r.duration_s = d.time - r.t_start_s;
+                r.preheat_max_k = r.preheat_max_k.max(pre);
+                r.preheat_mean_k += pre;
+                r.dwell_s += dwell;
+            }
+            _ => rows.push(LayerRow {
+                layer: q.layer,
+                t_start_s: d.arc_start() - dwell,
+                duration_s: d.time - d.arc_start() + dwell,
+                preheat_max_k: pre,
+                preheat_mean_k: pre,
+                dwell_s: dwell,
+            }),
+        }
+    }
+    for r in &mut rows {
+        let n = pl
+            .points
+            .iter()
+            .filter(|q| q.layer == r.layer)
+            .count()
+            .max(1);
+        r.preheat_mean_k /= n as f64;
+    }
+    rows
+}
+
+/// thermal.json, layers.csv, and path.csv again with times, dwells and per-point results.
+pub fn write_thermal(
+    dir: &mut RunDir,
+    s: &Scenario,
+    pl: &Plan,
+    sim: &Simulation,
+    dwell_s: &[f64],
+) -> Result<()> {
+    let r = &sim.result;
+    let max_preheat = r
+        .points
+        .iter()
+        .map(|p| p.preheat)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let json = json!({
+        "model": "fe",
+        "energy_in_j": r.ledger.energy_in(),
+        "energy_balance_error": r.balance_error,
+        "energy_stored_j": r.stored,
+        "energy_lost_j": {"convection": r.ledger.convection, "radiation": r.ledger.radiation, "table": r.ledger.table},
+        "max_preheat_c": max_preheat - C,
+        "interpass_max_c": s.dwell.interpass_max_k - C,
+        "first_overheat": first_overheat(s, sim),
+        "build_time_s": sim.deposits.last().map_or(0.0, |d| d.time),
+        "wall_nodes": r.n_wall_nodes,
+        "plate_cells": r.node_positions.len() - r.n_wall_nodes,
+        "steps": r.steps,
+        "cg_iterations": r.cg_iterations,
+        "underpowered_deposits": r.underpowered,
+        "wall_s": sim.wall_s,
+    });
+    dir.write_json("thermal.json", &json)?;
+    let mut csv =
+        String::from("layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk\n");
+    for l in layers(pl, sim, dwell_s) {
+        let risk = if l.preheat_max_k > s.dwell.interpass_max_k {
+            "interpass"
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            csv,
+            "{},{:.3},{:.3},{:.2},{:.2},{:.3},{risk}",
+            l.layer,
+            l.t_start_s,
+            l.duration_s,
+            l.preheat_max_k - C,
+            l.preheat_mean_k - C,
+            l.dwell_s
+        );
+    }
+    dir.write("layers.csv", csv.as_bytes())?;
+    let mut path = String::from(
+        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s\n",
+    );
+    let b = beads(s, pl);
+    for (i, q) in pl.points.iter().enumerate() {
+        let (bead, d, p) = (&b.beads[i], &sim.deposits[i], &r.points[i]);
+        let _ = writeln!(
+            path,
+            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{},{:.3},{:.3},{:.2},{:.2},{:.3},{:.3}",
+            q.position.x,
+            q.position.y,
+            q.position.z,
+            q.tool.x,
+            q.tool.y,
+            q.tool.z,
+            q.layer,
+            q.generator,
+            q.deposit_mm,
+            bead.wfs_m_s * 60.0,
+            bead.travel_m_s * 1e3,
+            d.time,
+            dwell_s.get(i).copied().unwrap_or(0.0),
+            p.preheat - C,
+            p.peak - C,
+            p.pool_length * 1e3,
+            p.time_above
+        );
+    }
+    dir.write("path.csv", path.as_bytes())?;
+    Ok(())
+}

@@ -1,0 +1,112 @@
+//! The thermal engine through `waamtwin simulate`.
+
+use crate::{scratch, waamtwin};
+
+fn simulate(
+    name: &str,
+    scenario: &str,
+) -> (serde_json::Value, Vec<Vec<String>>, std::path::PathBuf) {
+    let dir = scratch(name);
+    std::fs::write(dir.join("s.toml"), scenario).unwrap();
+    let out = waamtwin(&[
+        "simulate",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let t: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/thermal.json")).unwrap()).unwrap();
+    let layers = std::fs::read_to_string(dir.join("out/layers.csv")).unwrap();
+    let mut lines = layers.lines();
+    assert_eq!(
+        lines.next(),
+        Some("layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk")
+    );
+    (
+        t,
+        lines
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect(),
+        dir.join("out"),
+    )
+}
+
+/// Energy in is the arc's η·P over the arc time, from the model's own ledger; stored plus lost
+/// must account for it within 1 % (the enthalpy update closes it to round-off).
+#[test]
+fn energy_balance_over_a_whole_build() {
+    let (t, layers, dir) = simulate(
+        "thermal_balance",
+        "[part]\nshape = \"cylinder\"\nradius_mm = 40.0\nheight_mm = 20.0\nedge_mm = 2.0\n[thermal]\nplate_mm = [150.0, 150.0, 10.0]\n",
+    );
+    for key in [
+        "model",
+        "energy_in_j",
+        "energy_balance_error",
+        "max_preheat_c",
+        "first_overheat",
+        "wall_s",
+    ] {
+        assert!(t.get(key).is_some(), "thermal.json lacks {key}");
+    }
+    let build = t["build_time_s"].as_f64().unwrap();
+    let e_in = t["energy_in_j"].as_f64().unwrap();
+    // No dwells: the arc burns the whole build; 0.85 × 2000 W.
+    assert!(
+        (e_in / (0.85 * 2000.0 * build) - 1.0).abs() < 1e-9,
+        "{e_in} vs {}",
+        0.85 * 2000.0 * build
+    );
+    let stored = t["energy_stored_j"].as_f64().unwrap();
+    let lost: f64 = ["convection", "radiation", "table"]
+        .iter()
+        .map(|k| t["energy_lost_j"][k].as_f64().unwrap())
+        .sum();
+    let err = (e_in - stored - lost) / e_in;
+    eprintln!("balance: in {e_in:.0} J, stored {stored:.0} J, lost {lost:.0} J, error {err:.2e}");
+    assert!(err.abs() < 0.01 && (t["energy_balance_error"].as_f64().unwrap() - err).abs() < 1e-9);
+    assert!(stored > 0.0 && lost > 0.0);
+    assert_eq!(layers.len(), 10);
+    // path.csv carries the per-point results.
+    let path = std::fs::read_to_string(dir.join("path.csv")).unwrap();
+    assert!(
+        path.lines()
+            .next()
+            .unwrap()
+            .ends_with(",t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s")
+    );
+}
+
+/// A closed dome with no dwell: the revolutions shorten near the closing point and the preheat
+/// climbs there.
+#[test]
+fn closed_dome_preheat_rises_towards_the_closing_point() {
+    let (t, layers, _) = simulate(
+        "thermal_dome",
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 60.0\nedge_mm = 2.0\n[planner]\nn_points = 90\n",
+    );
+    let pre: Vec<f64> = layers.iter().map(|r| r[3].parse().unwrap()).collect();
+    let dur: Vec<f64> = layers.iter().map(|r| r[2].parse().unwrap()).collect();
+    let n = pre.len();
+    eprintln!(
+        "dome: revolution times {:.1} s → {:.1} s, preheat max {:.0} °C (mid) → {:.0} °C (last ten max)",
+        dur[n / 2],
+        dur[n - 2],
+        pre[n / 2],
+        pre[n - 10..].iter().cloned().fold(0.0, f64::max)
+    );
+    // Shorter revolutions, hotter metal: the last ten revolutions run hotter than mid-build and
+    // the preheat rises through them.
+    assert!(dur[n - 2] < 0.2 * dur[n / 2]);
+    assert!(pre[n - 10..].iter().cloned().fold(0.0, f64::max) > 2.0 * pre[n / 2]);
+    assert!(pre[n - 2] > pre[n - 10]);
+    assert!(
+        t["first_overheat"].is_u64(),
+        "the run must say the limit is exceeded"
+    );
+}

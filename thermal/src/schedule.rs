@@ -1,0 +1,53 @@
+//! The deposition schedule: what the thermal models take. Where and when the torch lays metal,
+//! how much, and how much heat enters the part; nothing about generators, layers or files.
+
+/// One deposit, in path order. SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Deposit {
+    /// Where the bead segment ends (the path point), m.
+    pub position: [f64; 3],
+    /// When the torch reaches it, s. A dwell before it lies in [previous time, time − arc_time].
+    pub time: f64,
+    /// How long the arc burns to lay this segment, s.
+    pub arc_time: f64,
+    /// Heat entering the part over the segment (η·P·arc_time), J.
+    pub heat: f64,
+    pub width: f64,
+    pub height: f64,
+    /// The deposit this one is laid on, or `None` for the substrate plate.
+    pub support: Option<usize>,
+}
+
+impl Deposit {
+    pub fn arc_start(&self) -> f64 {
+        self.time - self.arc_time
+    }
+}
+
+/// Checks the schedule: times increase, arc times fit, sizes positive, supports earlier.
+pub fn validate(deposits: &[Deposit]) -> Result<(), String> {
+    let mut previous = f64::NEG_INFINITY;
+    for (i, d) in deposits.iter().enumerate() {
+        if !(d.arc_time >= 0.0 && d.arc_start() >= previous - 1e-9) {
+            return Err(format!(
+                "deposit {i}: arc starts at {} s, before the previous deposit ends ({previous} s)",
+                d.arc_start()
+            ));
+        }
+        if !(d.width > 0.0 && d.height > 0.0 && d.heat >= 0.0) {
+            return Err(format!(
+                "deposit {i}: width {} m, height {} m, heat {} J; expected positive",
+                d.width, d.height, d.heat
+            ));
+        }
+        if let Some(s) = d.support
+            && s >= i
+        {
+            return Err(format!(
+                "deposit {i} is laid on deposit {s}, which comes later"
+            ));
+        }
+        previous = d.time;
+    }
+    Ok(())
+}
