@@ -9,6 +9,9 @@ use thermal::network::Surroundings;
 use thermal::schedule::Deposit;
 use thermal::wall::{Plate, WallSettings};
 
+/// Cell layers through the plate's thickness (see the model comparison in PHYSICS.md).
+const PLATE_LAYERS: usize = 3;
+
 /// Longest time step of the thermal model during dwells and cooling, s.
 const MAX_COOLING_STEP_S: f64 = 30.0;
 
@@ -39,6 +42,7 @@ pub fn schedule(s: &Scenario, pl: &Plan, b: &Beads, dwell_s: &[f64]) -> Vec<Depo
                 heat: s.process.efficiency * bead.power_w * arc,
                 width: s.process.bead_width_m,
                 height: (q.deposit_mm * 1e-3).max(1e-5),
+                axis: [q.tool.x, q.tool.y, q.tool.z],
                 // The spiral lays point i on the same generator one revolution earlier.
                 support: (q.layer > 0 && i >= n_gen).then(|| i - n_gen),
             }
@@ -89,6 +93,7 @@ pub fn wall_settings(s: &Scenario, deposits: &[Deposit], snapshot_times: Vec<f64
             size: t.plate_m,
             centre,
             cell: t.plate_cell_m,
+            layers: PLATE_LAYERS,
         },
         min_node: t.node_m,
         deposit_temperature: t.deposit_k,

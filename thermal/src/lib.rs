@@ -11,4 +11,5 @@
 pub mod material;
 pub mod network;
 pub mod schedule;
+pub mod voxel;
 pub mod wall;

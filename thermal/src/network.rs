@@ -92,7 +92,7 @@ struct Scratch {
 
 /// Temperature correction at which conjugate gradients stop, K. The energy update is exact
 /// whatever the solve's accuracy; this bounds the temperatures' error per step.
-const CG_TOLERANCE_K: f64 = 1e-6;
+const CG_TOLERANCE_K: f64 = 1e-4;
 
 impl Network {
     /// `edges`: (i, j, area/length) for each conducting pair.

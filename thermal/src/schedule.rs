@@ -14,6 +14,8 @@ pub struct Deposit {
     pub heat: f64,
     pub width: f64,
     pub height: f64,
+    /// Build direction (unit): the bead's height runs along it, from the deposit beneath.
+    pub axis: [f64; 3],
     /// The deposit this one is laid on, or `None` for the substrate plate.
     pub support: Option<usize>,
 }

@@ -19,6 +19,8 @@ pub struct Plate {
     /// Centre of the plate's top face in x and y, m (the top face is at z = 0).
     pub centre: [f64; 2],
     pub cell: f64,
+    /// Cell layers through the thickness: the wall heats the plate's top skin first.
+    pub layers: usize,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -164,21 +166,27 @@ impl WallModel {
         let l = layout(deps, s.min_node);
         let nw = l.first.len();
         let rho = s.material.density;
-        // Plate cells.
+        // Plate cells: nx × ny columns of `layers` cells through the thickness, top layer first.
         let p = &s.plate;
-        let (nx, ny) = (
+        let (nx, ny, nz) = (
             ((p.size[0] / p.cell).round() as usize).max(1),
             ((p.size[1] / p.cell).round() as usize).max(1),
+            p.layers.max(1),
         );
-        let (cx, cy) = (p.size[0] / nx as f64, p.size[1] / ny as f64);
+        let (cx, cy, cz) = (
+            p.size[0] / nx as f64,
+            p.size[1] / ny as f64,
+            p.size[2] / nz as f64,
+        );
         let origin = [p.centre[0] - p.size[0] / 2.0, p.centre[1] - p.size[1] / 2.0];
+        let plate_id = |i: usize, j: usize, k: usize| nw + (k * ny + j) * nx + i;
         let cell_id = |x: f64, y: f64| -> Option<usize> {
             let i = ((x - origin[0]) / cx).floor();
             let j = ((y - origin[1]) / cy).floor();
             (i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny)
-                .then(|| nw + j as usize * nx + i as usize)
+                .then(|| plate_id(i as usize, j as usize, 0))
         };
-        let n = nw + nx * ny;
+        let n = nw + nx * ny * nz;
         let mut mass = Vec::with_capacity(n);
         let mut exposed = Vec::with_capacity(n);
         let mut contact = vec![0.0; n];
@@ -193,27 +201,36 @@ impl WallModel {
             exposed.push(2.0 * l.height[k] * l.length[k] + l.width[k] * l.length[k]);
             top.push(l.width[k] * l.length[k]);
         }
-        for j in 0..ny {
-            for i in 0..nx {
-                mass.push(rho * cx * cy * p.size[2]);
-                exposed.push(cx * cy);
-                contact[nw + j * nx + i] = cx * cy;
-                positions.push([
-                    origin[0] + (i as f64 + 0.5) * cx,
-                    origin[1] + (j as f64 + 0.5) * cy,
-                    -p.size[2] / 2.0,
-                ]);
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    mass.push(rho * cx * cy * cz);
+                    exposed.push(if k == 0 { cx * cy } else { 0.0 });
+                    if k == nz - 1 {
+                        contact[plate_id(i, j, k)] = cx * cy;
+                    }
+                    positions.push([
+                        origin[0] + (i as f64 + 0.5) * cx,
+                        origin[1] + (j as f64 + 0.5) * cy,
+                        -(k as f64 + 0.5) * cz,
+                    ]);
+                }
             }
         }
         let mut edges: Vec<(usize, usize, f64)> = Vec::new();
-        for j in 0..ny {
-            for i in 0..nx {
-                let a = nw + j * nx + i;
-                if i + 1 < nx {
-                    edges.push((a, a + 1, p.size[2] * cy / cx));
-                }
-                if j + 1 < ny {
-                    edges.push((a, a + nx, p.size[2] * cx / cy));
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let a = plate_id(i, j, k);
+                    if i + 1 < nx {
+                        edges.push((a, plate_id(i + 1, j, k), cz * cy / cx));
+                    }
+                    if j + 1 < ny {
+                        edges.push((a, plate_id(i, j + 1, k), cz * cx / cy));
+                    }
+                    if k + 1 < nz {
+                        edges.push((a, plate_id(i, j, k + 1), cx * cy / cz));
+                    }
                 }
             }
         }
@@ -239,7 +256,7 @@ impl WallModel {
             let (under, gap) = match d.support {
                 Some(sp) => (l.node_of[sp], dist(l.centre[me], l.centre[l.node_of[sp]])),
                 None => match cell_id(d.position[0], d.position[1]) {
-                    Some(c) => (c, 0.5 * (l.height[me] + p.size[2])),
+                    Some(c) => (c, 0.5 * (l.height[me] + cz)),
                     None => {
                         return Err(format!(
                             "deposit {i} at ({:.1}, {:.1}) mm lies outside the plate",
@@ -463,7 +480,7 @@ fn segment_share(deps: &[Deposit], i: usize, length: &[f64], node_of: &[usize]) 
 }
 
 /// When the torch is `lead` upstream of each deposit (along the path), s.
-fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
+pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
     let mut s = vec![0.0; deps.len()];
     for i in 1..deps.len() {
         s[i] = s[i - 1] + dist(deps[i].position, deps[i - 1].position);

@@ -1,0 +1,114 @@
+//! Thermal benchmarks (issue 6).
+//!
+//! 1. The voxel kernel: explicit 7-point enthalpy updates over the active set of a finished
+//!    10-revolution cylinder (R 60 mm, 2 mm voxels, with its 200 × 200 × 10 mm plate), on one
+//!    thread and on two; updates per second.
+//! 2. The thin-wall model on a whole build: the 80-revolution cylinder R 80 × 160 mm.
+//!
+//! Run: `cargo bench -p thermal --bench thermal`
+
+use std::time::Instant;
+use thermal::material::Material;
+use thermal::network::Surroundings;
+use thermal::schedule::Deposit;
+use thermal::voxel::{VoxelModel, VoxelSettings};
+use thermal::wall::{Plate, WallModel, WallSettings};
+
+fn cylinder(r: f64, n: usize, layers: usize) -> Vec<Deposit> {
+    let (h, v, power) = (2e-3, 10e-3, 0.85 * 2000.0);
+    let dt = 2.0 * std::f64::consts::PI * r / n as f64 / v;
+    (0..n * layers)
+        .map(|i| {
+            let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+            Deposit {
+                position: [r * th.cos(), r * th.sin(), h * (1.0 + i as f64 / n as f64)],
+                time: (i + 1) as f64 * dt,
+                arc_time: dt,
+                heat: power * dt,
+                width: 6e-3,
+                height: h,
+                axis: [0.0, 0.0, 1.0],
+                support: (i >= n).then(|| i - n),
+            }
+        })
+        .collect()
+}
+
+fn surroundings() -> Surroundings {
+    Surroundings {
+        ambient_k: 293.15,
+        convection_w_m2k: 15.0,
+        emissivity: 0.6,
+        table_w_m2k: 100.0,
+    }
+}
+
+fn main() {
+    let deps = cylinder(0.06, 120, 10);
+    let vs = VoxelSettings {
+        material: Material::g3si(),
+        surroundings: surroundings(),
+        plate: Plate {
+            size: [0.2, 0.2, 0.01],
+            centre: [0.0, 0.0],
+            cell: 5e-3,
+            layers: 3,
+        },
+        size: 2e-3,
+        deposit_temperature: 1823.15,
+        lead: 10e-3,
+        courant: 0.9,
+    };
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut m = VoxelModel::new(&deps, &vs).unwrap();
+            m.lay_all(&deps);
+            let dt = m.stable_step();
+            let steps = 400;
+            let zero: Vec<f32> = Vec::new();
+            m.step(dt, &zero);
+            let t = Instant::now();
+            for _ in 0..steps {
+                m.step(dt, &zero);
+            }
+            let secs = t.elapsed().as_secs_f64();
+            println!(
+                "voxel kernel, {threads} thread(s): {} active voxels, {:.3e} updates/s ({:.1} ns/update)",
+                m.active(),
+                (m.active() * steps) as f64 / secs,
+                secs * 1e9 / (m.active() * steps) as f64
+            );
+        });
+    }
+    let deps = cylinder(0.08, 126, 80);
+    let ws = WallSettings {
+        material: Material::g3si(),
+        surroundings: surroundings(),
+        plate: Plate {
+            size: [0.25, 0.25, 0.01],
+            centre: [0.0, 0.0],
+            cell: 5e-3,
+            layers: 3,
+        },
+        min_node: 3e-3,
+        deposit_temperature: 1823.15,
+        footprint: 6e-3,
+        lead: 10e-3,
+        hot_threshold: 873.15,
+        max_step: 30.0,
+        snapshot_times: vec![],
+    };
+    let t = Instant::now();
+    let r = WallModel::build(&deps, &ws).unwrap().run(&deps, &ws, 0.0);
+    println!(
+        "thin wall, cylinder R80 × 160 mm (80 revolutions, {:.0} s of arc): {:.1} s wall, {} steps, {:.1} CG iterations a step",
+        deps.last().unwrap().time,
+        t.elapsed().as_secs_f64(),
+        r.steps,
+        r.cg_iterations as f64 / r.steps as f64
+    );
+}
