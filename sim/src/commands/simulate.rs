@@ -14,7 +14,8 @@ use std::fmt::Write;
 use std::path::Path;
 use std::time::Instant;
 use thermal::schedule::Deposit;
-use thermal::wall::{WallModel, WallResult};
+use thermal::voxel::{VoxelModel, VoxelSettings};
+use thermal::wall::{PointResult, WallModel, WallResult};
 
 const C: f64 = 273.15;
 
@@ -26,23 +27,72 @@ pub struct Simulation {
 }
 
 pub fn simulate(s: &Scenario, pl: &Plan, dwell_s: &[f64]) -> Result<Simulation> {
-    if s.thermal.model == ThermalModel::Voxel {
-        return Err(Error::input(
-            "thermal.model = \"voxel\": the voxel model runs only in the model comparison so far; use \"fe\"",
-        ));
-    }
     let b = beads(s, pl);
     let deposits = schedule(s, pl, &b, dwell_s);
     let settings = wall_settings(s, &deposits, Vec::new());
     let clock = Instant::now();
     let _stage = Stage::start("simulating the heat of the build");
-    let model = WallModel::build(&deposits, &settings)
-        .map_err(|e| Error::input(format!("thermal: {e}")))?;
-    let result = model.run(&deposits, &settings, 0.0);
+    let result = match s.thermal.model {
+        ThermalModel::Fe => {
+            let model = WallModel::build(&deposits, &settings)
+                .map_err(|e| Error::input(format!("thermal: {e}")))?;
+            model.run(&deposits, &settings, 0.0)
+        }
+        ThermalModel::Voxel => voxel(&deposits, &settings, s)?,
+    };
     Ok(Simulation {
         deposits,
         result,
         wall_s: clock.elapsed().as_secs_f64(),
+    })
+}
+
+/// The voxel model on the same schedule; it gives the preheat per point and the energy ledger
+/// (peak, pool and time above threshold are the thin-wall model's, left empty here).
+fn voxel(
+    deposits: &[Deposit],
+    w: &thermal::wall::WallSettings,
+    s: &Scenario,
+) -> Result<WallResult> {
+    let settings = VoxelSettings {
+        material: w.material.clone(),
+        surroundings: w.surroundings,
+        plate: w.plate.clone(),
+        size: s.thermal.voxel_m,
+        deposit_temperature: w.deposit_temperature,
+        lead: w.lead,
+        courant: 0.9,
+    };
+    let model =
+        VoxelModel::new(deposits, &settings).map_err(|e| Error::input(format!("thermal: {e}")))?;
+    let r = model.run(deposits);
+    let empty = PointResult {
+        preheat: 0.0,
+        peak: f64::NAN,
+        pool_length: f64::NAN,
+        pool_radius: f64::NAN,
+        time_above: f64::NAN,
+    };
+    Ok(WallResult {
+        points: r
+            .preheat
+            .iter()
+            .map(|&p| PointResult {
+                preheat: p,
+                ..empty
+            })
+            .collect(),
+        ledger: r.ledger,
+        stored: r.stored,
+        balance_error: r.balance_error,
+        node_positions: Vec::new(),
+        node_of_deposit: Vec::new(),
+        n_wall_nodes: r.voxels,
+        snapshots: Vec::new(),
+        final_temperature: Vec::new(),
+        steps: r.steps,
+        cg_iterations: 0,
+        underpowered: 0,
     })
 }
 
@@ -149,7 +199,7 @@ pub fn write_thermal(
         .map(|p| p.preheat)
         .fold(f64::NEG_INFINITY, f64::max);
     let json = json!({
-        "model": "fe",
+        "model": match s.thermal.model { ThermalModel::Fe => "fe", ThermalModel::Voxel => "voxel" },
         "energy_in_j": r.ledger.energy_in(),
         "energy_balance_error": r.balance_error,
         "energy_stored_j": r.stored,
@@ -159,7 +209,7 @@ pub fn write_thermal(
         "first_overheat": first_overheat(s, sim),
         "build_time_s": sim.deposits.last().map_or(0.0, |d| d.time),
         "wall_nodes": r.n_wall_nodes,
-        "plate_cells": r.node_positions.len() - r.n_wall_nodes,
+        "plate_cells": r.node_positions.len().saturating_sub(r.n_wall_nodes),
         "steps": r.steps,
         "cg_iterations": r.cg_iterations,
         "underpowered_deposits": r.underpowered,

@@ -102,6 +102,7 @@ pub struct ThermalSettings {
     pub hot_threshold_k: f64,
     /// Temperature-dependent G3Si tables, or the material's constants.
     pub temperature_dependent: bool,
+    pub voxel_m: f64,
     pub model: ThermalModel,
     pub ambient_k: f64,
     pub convection_w_m2k: f64,
@@ -426,6 +427,14 @@ impl Scenario {
             3000.0,
             "between 0 and 3000",
         )?;
+        c.range(
+            "thermal",
+            "voxel_mm",
+            t.voxel_mm,
+            0.25,
+            20.0,
+            "between 0.25 and 20",
+        )?;
         if let Some(f) = t.footprint_mm {
             c.positive("thermal", "footprint_mm", f, 100.0)?;
         }
@@ -449,6 +458,7 @@ impl Scenario {
             footprint_m: t.footprint_mm.unwrap_or(p.bead_width_mm) * MM,
             hot_threshold_k: t.hot_threshold_c + KELVIN,
             temperature_dependent,
+            voxel_m: t.voxel_mm * MM,
             model,
             ambient_k: t.ambient_c + KELVIN,
             convection_w_m2k: t.convection_w_m2k,

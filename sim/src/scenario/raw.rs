@@ -167,6 +167,8 @@ pub struct RawThermal {
     pub hot_threshold_c: f64,
     /// "temperature" (G3Si tables) or "constant" (the material's constants).
     pub properties: String,
+    /// Voxel edge of the voxel model.
+    pub voxel_mm: f64,
 }
 
 impl Default for RawThermal {
@@ -185,6 +187,7 @@ impl Default for RawThermal {
             footprint_mm: None,
             hot_threshold_c: 600.0,
             properties: "temperature".into(),
+            voxel_mm: 2.0,
         }
     }
 }
