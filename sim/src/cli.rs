@@ -47,6 +47,15 @@ pub enum Command {
         #[arg(short = 'o', long = "out")]
         out: PathBuf,
     },
+    /// Plan, simulate and plan the cooling dwells: dwells.csv, dwell.json, and the dwelled run.
+    Dwell {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+        /// Skip the baselines (uniform dwell, wait until cool), which take several builds.
+        #[arg(long)]
+        no_baselines: bool,
+    },
     /// Write a scenario's part (a library shape or a mesh file) as a welded STL, OBJ or PLY mesh.
     Mesh {
         scenario: PathBuf,

@@ -8,10 +8,12 @@ pub mod beads;
 pub mod cli;
 pub mod commands;
 pub mod deposition;
+pub mod dwell;
 pub mod error;
 pub mod output;
 pub mod part;
 pub mod progress;
+pub mod risk;
 pub mod scenario;
 
 use cli::Command;
@@ -45,6 +47,14 @@ pub fn run(cli: cli::Cli) -> Result<()> {
         }
         Command::Simulate { scenario, out } => {
             println!("{}", commands::simulate::run(&scenario, &out)?);
+            Ok(())
+        }
+        Command::Dwell {
+            scenario,
+            out,
+            no_baselines,
+        } => {
+            println!("{}", commands::dwell::run(&scenario, &out, !no_baselines)?);
             Ok(())
         }
         Command::Mesh { scenario, out } => {

@@ -4,7 +4,9 @@ use crate::{root, scratch, waamtwin};
 
 #[test]
 fn every_subcommand_has_help() {
-    for cmd in ["inspect", "geodesic", "plan", "simulate", "mesh", "demo"] {
+    for cmd in [
+        "inspect", "geodesic", "plan", "simulate", "dwell", "mesh", "demo",
+    ] {
         let out = waamtwin(&[cmd, "--help"]);
         assert!(out.status.success(), "{cmd} --help");
         assert!(

@@ -3,6 +3,7 @@
 mod bead;
 mod cli;
 mod ctpp;
+mod dwell;
 mod inspect;
 mod scenarios;
 mod thermal;

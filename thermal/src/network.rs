@@ -14,6 +14,7 @@
 //! is across scenarios instead.
 
 use crate::material::Material;
+use std::sync::Arc;
 
 /// Stefan–Boltzmann constant, W/(m² K⁴).
 pub const SIGMA: f64 = 5.670_374_419e-8;
@@ -49,21 +50,24 @@ impl Ledger {
     }
 }
 
+/// Cloning is a checkpoint: the state (enthalpy, temperature, activity, exposure, ledger) is
+/// copied, the structure (material, masses, adjacency) shared.
+#[derive(Clone)]
 pub struct Network {
-    pub material: Material,
+    pub material: Arc<Material>,
     pub surroundings: Surroundings,
-    pub mass: Vec<f64>,
+    pub mass: Arc<Vec<f64>>,
     /// Exposed area for convection and radiation, m².
     pub exposed: Vec<f64>,
     /// Area in contact with the table, m².
-    pub contact: Vec<f64>,
+    pub contact: Arc<Vec<f64>>,
     pub active: Vec<bool>,
     /// Specific enthalpy, J/kg, and the temperature it means, K.
     pub h: Vec<f64>,
     pub t: Vec<f64>,
     /// Symmetric adjacency (CSR): neighbour and geometric factor area/length (m).
-    start: Vec<u32>,
-    adj: Vec<(u32, f64)>,
+    start: Arc<Vec<u32>>,
+    adj: Arc<Vec<(u32, f64)>>,
     pub ledger: Ledger,
     /// Solver statistics: steps and CG iterations.
     pub steps: usize,
@@ -72,7 +76,8 @@ pub struct Network {
     scratch: Scratch,
 }
 
-/// The step's workspace, sized once: no allocation in a time step.
+/// The step's workspace, sized once: no allocation in a time step. A checkpoint copies only
+/// the last step's temperatures and length (the next step starts from their trend).
 #[derive(Default)]
 struct Scratch {
     diag: Vec<f64>,
@@ -126,13 +131,13 @@ impl Network {
             h: vec![h_ambient; n],
             t: vec![surroundings.ambient_k; n],
             active: vec![false; n],
-            material,
+            material: Arc::new(material),
             surroundings,
-            mass,
+            mass: Arc::new(mass),
             exposed,
-            contact,
-            start: count,
-            adj,
+            contact: Arc::new(contact),
+            start: Arc::new(count),
+            adj: Arc::new(adj),
             ledger: Ledger::default(),
             steps: 0,
             iterations: 0,
@@ -266,6 +271,16 @@ impl Network {
         self.ledger.table += dt * sums[3];
         self.steps += 1;
         self.scratch = ws;
+    }
+}
+
+impl Clone for Scratch {
+    fn clone(&self) -> Scratch {
+        Scratch {
+            last_t: self.last_t.clone(),
+            last_dt: self.last_dt,
+            ..Scratch::default()
+        }
     }
 }
 

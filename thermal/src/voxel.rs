@@ -561,6 +561,7 @@ impl VoxelModel {
         let mut src = Vec::new();
         let mut now = deps.first().map_or(0.0, |d| d.arc_start());
         let zero: Vec<f32> = Vec::new();
+        self.probe(deps, &read_at, &order, &mut next, now, &mut preheat);
         for i in 0..deps.len() {
             let d = &deps[i];
             // Dwell.

@@ -11,6 +11,7 @@ use crate::material::Material;
 use crate::network::{Ledger, Network, Surroundings};
 use crate::schedule::{Deposit, validate};
 use std::collections::HashMap;
+use std::sync::Arc;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plate {
@@ -42,6 +43,20 @@ pub struct WallSettings {
     pub max_step: f64,
     /// Times at which to keep the whole field, s.
     pub snapshot_times: Vec<f64>,
+}
+
+/// What a deposit is laid on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Support {
+    /// The substrate plate (the first revolution).
+    Plate,
+    /// An earlier revolution.
+    Deposit,
+    /// A deposit laid at or after the moment this one's preheat is read (`lead` upstream), or
+    /// inside the torch's footprint at that moment: near a closing point, where a revolution is
+    /// not much longer than the lead, the reading is the arc's own heat, and no dwell can come
+    /// between the two.
+    JustLaid,
 }
 
 /// Per deposit.
@@ -82,6 +97,8 @@ pub struct WallResult {
     pub cg_iterations: usize,
     /// Deposits whose heat did not cover melting their own metal (source clamped at zero).
     pub underpowered: usize,
+    /// What each deposit is laid on.
+    pub support: Vec<Support>,
 }
 
 struct Layout {
@@ -146,18 +163,19 @@ fn layout(deps: &[Deposit], min_node: f64) -> Layout {
     l
 }
 
+#[derive(Clone)]
 pub struct WallModel {
     pub network: Network,
-    layout_first: Vec<usize>,
-    node_of: Vec<usize>,
+    layout_first: Arc<Vec<usize>>,
+    node_of: Arc<Vec<usize>>,
     n_wall: usize,
-    positions: Vec<[f64; 3]>,
+    positions: Arc<Vec<[f64; 3]>>,
     /// Bead top area of each wall node, covered when a deposit is laid on it.
     top: Vec<f64>,
     /// Per deposit: the node it is laid on (a wall node or a plate cell).
     below: Vec<usize>,
-    length: Vec<f64>,
-    volume: Vec<f64>,
+    length: Arc<Vec<f64>>,
+    volume: Arc<Vec<f64>>,
 }
 
 impl WallModel {
@@ -293,179 +311,265 @@ impl WallModel {
         network.ledger.deposited = 0.0;
         Ok(WallModel {
             network,
-            layout_first: l.first,
-            node_of: l.node_of,
+            layout_first: Arc::new(l.first),
+            node_of: Arc::new(l.node_of),
             n_wall: nw,
-            positions,
+            positions: Arc::new(positions),
             top,
             below,
-            length: l.length,
-            volume,
+            length: Arc::new(l.length),
+            volume: Arc::new(volume),
         })
     }
 
-    /// Run the schedule to its end and `cool_after` seconds beyond.
-    pub fn run(mut self, deps: &[Deposit], s: &WallSettings, cool_after: f64) -> WallResult {
-        let n = self.network.len();
-        let h_amb = s.material.enthalpy(s.surroundings.ambient_k);
-        let h_dep = s.material.enthalpy(s.deposit_temperature);
-        let mut points = vec![PointResult::default(); deps.len()];
-        let read_at = read_times(deps, s.lead);
-        let mut probes: Vec<usize> = (0..deps.len()).collect();
-        probes.sort_by(|&a, &b| read_at[a].total_cmp(&read_at[b]));
-        let mut next_probe = 0;
-        let mut time_above = vec![0.0; n];
-        let mut peak = vec![s.surroundings.ambient_k; n];
-        let mut snapshots = Vec::new();
-        let mut snap_times = s.snapshot_times.clone();
-        snap_times.sort_by(f64::total_cmp);
-        let mut next_snap = 0;
-        let grid = NodeGrid::new(&self.positions[..self.n_wall], s.footprint);
-        let mut power = vec![0.0; n];
-        let mut now = deps.first().map_or(0.0, |d| d.arc_start());
-        let mut underpowered = 0;
-        let below = std::mem::take(&mut self.below);
-        let mut observe =
-            |net: &Network, now: f64, dt: f64, points: &mut Vec<PointResult>, below: &[usize]| {
-                while next_probe < probes.len() && read_at[probes[next_probe]] <= now + 1e-9 {
-                    let i = probes[next_probe];
-                    points[i].preheat = net.t[below[i]];
-                    next_probe += 1;
-                }
-                for k in 0..n {
-                    if net.active[k] {
-                        if net.t[k] > s.hot_threshold {
-                            time_above[k] += dt;
-                        }
-                        peak[k] = peak[k].max(net.t[k]);
-                    }
-                }
-                while next_snap < snap_times.len() && snap_times[next_snap] <= now + 1e-9 {
-                    snapshots.push(Snapshot {
-                        time: snap_times[next_snap],
-                        temperature: net.t.clone(),
-                    });
-                    next_snap += 1;
-                }
-            };
+    /// Run the schedule as its times say (dwells are the gaps between arcs) and `cool_after`
+    /// seconds beyond.
+    pub fn run(self, deps: &[Deposit], s: &WallSettings, cool_after: f64) -> WallResult {
+        let mut run = WallRun::new(self, deps, s);
+        let mut previous_end = deps.first().map_or(0.0, |d| d.arc_start());
         for (i, d) in deps.iter().enumerate() {
-            // Dwell (arc off) until this segment's arc starts.
-            cool(
-                &mut self.network,
-                d.arc_start() - now,
-                s.max_step,
-                &mut power,
-                &mut now,
-                &mut |net, t, dt| observe(net, t, dt, &mut points, &below),
-            );
-            let node = self.node_of[i];
-            if self.layout_first[node] == i {
-                self.network.activate(node, s.deposit_temperature);
-                if below[i] < self.n_wall {
-                    let b = below[i];
-                    let covered = self.top[b].min(self.network.exposed[b]);
-                    self.network.exposed[b] -= covered.min(self.top[b]);
-                    self.top[b] = 0.0;
-                }
-            }
-            // The arc's heat less what melting this segment's wire took, over the footprint.
-            let seg_mass =
-                self.network.mass[node] * segment_share(deps, i, &self.length, &self.node_of);
-            let mut q = d.heat - seg_mass * (h_dep - h_amb);
-            if q < 0.0 {
-                q = 0.0;
-                underpowered += 1;
-            }
-            power.iter_mut().for_each(|p| *p = 0.0);
-            let near = grid.within(d.position, s.footprint, &self.positions);
-            let weights: Vec<(usize, f64)> = near
-                .into_iter()
-                .filter(|&k| self.network.active[k])
-                .map(|k| {
-                    (
-                        k,
-                        (-3.0 * (dist(self.positions[k], d.position) / s.footprint).powi(2)).exp(),
-                    )
-                })
-                .collect();
-            let total: f64 = weights.iter().map(|w| w.1).sum();
-            if d.arc_time > 0.0 {
-                if total > 0.0 {
-                    for (k, w) in &weights {
-                        power[*k] += q / d.arc_time * w / total;
-                    }
-                } else {
-                    power[node] += q / d.arc_time;
-                }
-                let dt = d.arc_time;
-                self.network.step(dt, &power);
-                now += dt;
-                observe(&self.network, now, dt, &mut points, &below);
-            }
-            // The melt pool behind the torch.
-            let (mut len, mut vol, mut k) = (0.0, 0.0, node as isize);
-            while k >= 0 && self.network.t[k as usize] > s.material.solidus {
-                len += self.length[k as usize];
-                vol += self.volume[k as usize];
-                k -= 1;
-            }
-            points[i].pool_length = len;
-            points[i].pool_radius = (3.0 * vol / (2.0 * std::f64::consts::PI)).cbrt();
+            run.deposit(deps, i, (d.arc_start() - previous_end).max(0.0));
+            previous_end = d.time;
         }
-        power.iter_mut().for_each(|p| *p = 0.0);
-        cool(
-            &mut self.network,
-            cool_after,
-            s.max_step,
-            &mut power,
-            &mut now,
-            &mut |net, t, dt| observe(net, t, dt, &mut points, &below),
-        );
-        for (i, p) in points.iter_mut().enumerate() {
-            let node = self.node_of[i];
-            p.peak = peak[node];
-            p.time_above = time_above[node];
-        }
-        let net = &self.network;
-        WallResult {
-            points,
-            ledger: net.ledger,
-            stored: net.stored(),
-            balance_error: net.balance_error(),
-            node_positions: self.positions.clone(),
-            node_of_deposit: self.node_of.clone(),
-            n_wall_nodes: self.n_wall,
-            snapshots,
-            final_temperature: net.t.clone(),
-            steps: net.steps,
-            cg_iterations: net.iterations,
-            underpowered,
-        }
+        run.cool(cool_after);
+        run.finish()
     }
 }
 
-/// Let the part cool (no source) for `duration`, in steps growing from half a second to
-/// `max_step`.
-fn cool(
-    net: &mut Network,
-    duration: f64,
-    max_step: f64,
-    power: &mut [f64],
-    now: &mut f64,
-    observe: &mut impl FnMut(&Network, f64, f64),
-) {
-    if duration <= 1e-9 {
-        return;
+/// A thin-wall run in progress, one deposit at a time. Cloning it is a checkpoint: the dwell
+/// planner restarts from one with a trial dwell instead of simulating the build again.
+#[derive(Clone)]
+pub struct WallRun {
+    model: WallModel,
+    settings: Arc<WallSettings>,
+    /// Per deposit, the deposit during whose arc its preheat is read (dwell-independent: the
+    /// torch is `lead` upstream along the path).
+    probes_at: Arc<Vec<Vec<usize>>>,
+    /// Per deposit: the deposit it is laid on, and the one during whose arc its preheat is read.
+    support_of: Arc<Vec<Option<usize>>>,
+    read_at: Arc<Vec<Option<usize>>>,
+    positions_of: Arc<Vec<[f64; 3]>>,
+    points: Vec<PointResult>,
+    time_above: Vec<f64>,
+    peak: Vec<f64>,
+    snapshots: Vec<Snapshot>,
+    next_snapshot: usize,
+    power: Vec<f64>,
+    grid: Arc<NodeGrid>,
+    below: Arc<Vec<usize>>,
+    /// Time now, s; deposits laid so far.
+    pub now: f64,
+    pub laid: usize,
+    underpowered: usize,
+    h_deposit: f64,
+    h_ambient: f64,
+}
+
+impl WallRun {
+    pub fn new(mut model: WallModel, deps: &[Deposit], s: &WallSettings) -> WallRun {
+        let n = model.network.len();
+        let mut probes_at = vec![Vec::new(); deps.len()];
+        let mut points = vec![PointResult::default(); deps.len()];
+        let read_at = read_points(deps, s.lead);
+        for (k, &j) in read_at.iter().enumerate() {
+            match j {
+                Some(j) => probes_at[j].push(k),
+                // Read before the path starts: the plate as it is, at ambient.
+                None => points[k].preheat = s.surroundings.ambient_k,
+            }
+        }
+        let below = std::mem::take(&mut model.below);
+        let grid =
+            std::sync::Arc::new(NodeGrid::new(&model.positions[..model.n_wall], s.footprint));
+        let mut snap = s.snapshot_times.clone();
+        snap.sort_by(f64::total_cmp);
+        let mut settings = s.clone();
+        settings.snapshot_times = snap;
+        WallRun {
+            probes_at: Arc::new(probes_at),
+            support_of: Arc::new(deps.iter().map(|d| d.support).collect()),
+            read_at: Arc::new(read_at),
+            positions_of: Arc::new(deps.iter().map(|d| d.position).collect()),
+            points,
+            time_above: vec![0.0; n],
+            peak: vec![s.surroundings.ambient_k; n],
+            snapshots: Vec::new(),
+            next_snapshot: 0,
+            power: vec![0.0; n],
+            grid,
+            below: Arc::new(below),
+            now: deps.first().map_or(0.0, |d| d.arc_start()),
+            laid: 0,
+            underpowered: 0,
+            h_deposit: s.material.enthalpy(s.deposit_temperature),
+            h_ambient: s.material.enthalpy(s.surroundings.ambient_k),
+            settings: Arc::new(settings),
+            model,
+        }
     }
-    power.iter_mut().for_each(|p| *p = 0.0);
-    let end = *now + duration;
-    let mut dt = 0.5f64.min(duration);
-    while *now < end - 1e-9 {
-        let step = dt.min(end - *now);
-        net.step(step, power);
-        *now += step;
-        observe(net, *now, step);
-        dt = (dt * 1.5).min(max_step);
+
+    pub fn points(&self) -> &[PointResult] {
+        &self.points
+    }
+
+    /// The temperatures of the nodes, K (wall nodes first, then the plate).
+    pub fn temperatures(&self) -> &[f64] {
+        &self.model.network.t
+    }
+
+    /// The node deposit i belongs to.
+    pub fn node_of(&self, i: usize) -> usize {
+        self.model.node_of[i]
+    }
+
+    /// Node deposit i is laid on (a wall node or a plate cell).
+    pub fn below(&self, i: usize) -> usize {
+        self.below[i]
+    }
+
+    /// What deposit i is laid on.
+    pub fn support(&self, i: usize) -> Support {
+        let (b, own) = (self.below[i], self.model.node_of[i]);
+        let footprint = self.settings.footprint;
+        let read_after_support = matches!((self.support_of[i], self.read_at[i]),
+            (Some(s), Some(r)) if s >= r || dist(self.positions_of[s], self.positions_of[r]) < footprint);
+        if b >= self.model.n_wall {
+            Support::Plate
+        } else if b >= own || read_after_support {
+            Support::JustLaid
+        } else {
+            Support::Deposit
+        }
+    }
+
+    /// Cool `dwell` seconds, then lay deposit i: its metal arrives molten and the rest of its
+    /// heat goes in over its arc time.
+    pub fn deposit(&mut self, deps: &[Deposit], i: usize, dwell: f64) {
+        self.cool(dwell);
+        let (t_deposit, footprint) = (self.settings.deposit_temperature, self.settings.footprint);
+        let d = &deps[i];
+        let m = &mut self.model;
+        let node = m.node_of[i];
+        if m.layout_first[node] == i {
+            m.network.activate(node, t_deposit);
+            let b = self.below[i];
+            if b < m.n_wall {
+                let covered = m.top[b].min(m.network.exposed[b]);
+                m.network.exposed[b] -= covered;
+                m.top[b] = 0.0;
+            }
+        }
+        let seg_mass = m.network.mass[node] * segment_share(deps, i, &m.length, &m.node_of);
+        let mut q = d.heat - seg_mass * (self.h_deposit - self.h_ambient);
+        if q < 0.0 {
+            q = 0.0;
+            self.underpowered += 1;
+        }
+        self.power.iter_mut().for_each(|p| *p = 0.0);
+        let weights: Vec<(usize, f64)> = self
+            .grid
+            .within(d.position, footprint, &m.positions)
+            .into_iter()
+            .filter(|&k| m.network.active[k])
+            .map(|k| {
+                (
+                    k,
+                    (-3.0 * (dist(m.positions[k], d.position) / footprint).powi(2)).exp(),
+                )
+            })
+            .collect();
+        let total: f64 = weights.iter().map(|w| w.1).sum();
+        if d.arc_time > 0.0 {
+            if total > 0.0 {
+                for (k, w) in &weights {
+                    self.power[*k] += q / d.arc_time * w / total;
+                }
+            } else {
+                self.power[node] += q / d.arc_time;
+            }
+            m.network.step(d.arc_time, &self.power);
+            self.now += d.arc_time;
+            self.observe(d.arc_time);
+        }
+        for &k in &self.probes_at[i] {
+            self.points[k].preheat = self.model.network.t[self.below[k]];
+        }
+        // The melt pool behind the torch.
+        let (mut len, mut vol, mut k) = (0.0, 0.0, node as isize);
+        let net = &self.model.network;
+        let solidus = self.settings.material.solidus;
+        while k >= 0 && net.t[k as usize] > solidus {
+            len += self.model.length[k as usize];
+            vol += self.model.volume[k as usize];
+            k -= 1;
+        }
+        self.points[i].pool_length = len;
+        self.points[i].pool_radius = (3.0 * vol / (2.0 * std::f64::consts::PI)).cbrt();
+        self.laid = i + 1;
+    }
+
+    /// Let the part cool (no source) for `duration`, in steps growing from half a second to
+    /// the settings' longest step.
+    pub fn cool(&mut self, duration: f64) {
+        if duration <= 1e-9 {
+            return;
+        }
+        self.power.iter_mut().for_each(|p| *p = 0.0);
+        let end = self.now + duration;
+        let mut dt = 0.5f64.min(duration);
+        while self.now < end - 1e-9 {
+            let step = dt.min(end - self.now);
+            self.model.network.step(step, &self.power);
+            self.now += step;
+            self.observe(step);
+            dt = (dt * 1.5).min(self.settings.max_step);
+        }
+    }
+
+    fn observe(&mut self, dt: f64) {
+        let net = &self.model.network;
+        let thr = self.settings.hot_threshold;
+        for k in 0..net.len() {
+            if net.active[k] {
+                if net.t[k] > thr {
+                    self.time_above[k] += dt;
+                }
+                self.peak[k] = self.peak[k].max(net.t[k]);
+            }
+        }
+        let times = &self.settings.snapshot_times;
+        while self.next_snapshot < times.len() && times[self.next_snapshot] <= self.now + 1e-9 {
+            self.snapshots.push(Snapshot {
+                time: times[self.next_snapshot],
+                temperature: net.t.clone(),
+            });
+            self.next_snapshot += 1;
+        }
+    }
+
+    pub fn finish(mut self) -> WallResult {
+        let support = (0..self.points.len()).map(|i| self.support(i)).collect();
+        for (i, p) in self.points.iter_mut().enumerate() {
+            let node = self.model.node_of[i];
+            p.peak = self.peak[node];
+            p.time_above = self.time_above[node];
+        }
+        let net = &self.model.network;
+        WallResult {
+            points: self.points,
+            ledger: net.ledger,
+            stored: net.stored(),
+            balance_error: net.balance_error(),
+            node_positions: self.model.positions.to_vec(),
+            node_of_deposit: self.model.node_of.to_vec(),
+            n_wall_nodes: self.model.n_wall,
+            snapshots: self.snapshots,
+            final_temperature: net.t.clone(),
+            steps: net.steps,
+            cg_iterations: net.iterations,
+            underpowered: self.underpowered,
+            support,
+        }
     }
 }
 
@@ -479,6 +583,18 @@ fn segment_share(deps: &[Deposit], i: usize, length: &[f64], node_of: &[usize]) 
     (seg / length[node_of[i]]).min(1.0)
 }
 
+/// Per deposit, the deposit during whose arc the torch is `lead` upstream of it (`None`: before
+/// the path starts).
+pub fn read_points(deps: &[Deposit], lead: f64) -> Vec<Option<usize>> {
+    let mut s = vec![0.0; deps.len()];
+    for i in 1..deps.len() {
+        s[i] = s[i - 1] + dist(deps[i].position, deps[i - 1].position);
+    }
+    (0..deps.len())
+        .map(|i| (s[i] - lead >= 0.0).then(|| s.partition_point(|&x| x < s[i] - lead).min(i)))
+        .collect()
+}
+
 /// When the torch is `lead` upstream of each deposit (along the path), s.
 pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
     let mut s = vec![0.0; deps.len()];
@@ -488,8 +604,9 @@ pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
     (0..deps.len())
         .map(|i| {
             let target = s[i] - lead;
-            if target <= 0.0 {
-                return deps[0].arc_start();
+            if target < 0.0 {
+                // Before the path starts: read before anything is laid.
+                return f64::NEG_INFINITY;
             }
             // The torch passes arc length `target` during the arc of the segment ending at j.
             let j = s
@@ -503,6 +620,7 @@ pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
 }
 
 /// Spatial hash of wall nodes for footprint queries.
+#[derive(Clone)]
 struct NodeGrid {
     cell: f64,
     map: HashMap<[i64; 3], Vec<u32>>,

@@ -1,6 +1,7 @@
 //! One module per subcommand; each is a library function a test can call.
 
 pub mod demo;
+pub mod dwell;
 pub mod geodesic;
 pub mod inspect;
 pub mod plan;

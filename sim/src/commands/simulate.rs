@@ -15,7 +15,7 @@ use std::path::Path;
 use std::time::Instant;
 use thermal::schedule::Deposit;
 use thermal::voxel::{VoxelModel, VoxelSettings};
-use thermal::wall::{PointResult, WallModel, WallResult};
+use thermal::wall::{PointResult, Support, WallModel, WallResult};
 
 const C: f64 = 273.15;
 
@@ -24,6 +24,8 @@ pub struct Simulation {
     pub deposits: Vec<Deposit>,
     pub result: WallResult,
     pub wall_s: f64,
+    /// What each deposit is laid on.
+    pub support: Vec<Support>,
 }
 
 pub fn simulate(s: &Scenario, pl: &Plan, dwell_s: &[f64]) -> Result<Simulation> {
@@ -40,10 +42,12 @@ pub fn simulate(s: &Scenario, pl: &Plan, dwell_s: &[f64]) -> Result<Simulation> 
         }
         ThermalModel::Voxel => voxel(&deposits, &settings, s)?,
     };
+    let support = result.support.clone();
     Ok(Simulation {
         deposits,
         result,
         wall_s: clock.elapsed().as_secs_f64(),
+        support,
     })
 }
 
@@ -93,6 +97,16 @@ fn voxel(
         steps: r.steps,
         cg_iterations: 0,
         underpowered: 0,
+        support: deposits
+            .iter()
+            .map(|d| {
+                if d.support.is_some() {
+                    Support::Deposit
+                } else {
+                    Support::Plate
+                }
+            })
+            .collect(),
     })
 }
 
@@ -132,11 +146,10 @@ pub fn summary(s: &Scenario, sim: &Simulation) -> String {
     )
 }
 
+/// The first point at risk by the scenario's criteria (the interpass limit among them).
 pub fn first_overheat(s: &Scenario, sim: &Simulation) -> Option<usize> {
-    sim.result
-        .points
-        .iter()
-        .position(|p| p.preheat > s.dwell.interpass_max_k)
+    (0..sim.result.points.len())
+        .find(|&i| crate::risk::judge(s, &sim.result.points[i], sim.support[i], 0.0).is_some())
 }
 
 /// Per revolution: start, duration, preheat max and mean, dwell, risk.

@@ -114,6 +114,14 @@ pub struct ThermalSettings {
 #[derive(Debug, Clone, PartialEq)]
 pub struct DwellSettings {
     pub interpass_max_k: f64,
+    /// None: that criterion is off.
+    pub interpass: bool,
+    pub strength_loss_k: Option<f64>,
+    pub humping: bool,
+    pub bond: bool,
+    pub max_dwell_s: f64,
+    pub margin_k: f64,
+    pub count_weight_s: f64,
 }
 
 /// Bead-model settings beyond the process: risk threshold and the hot-metal law.
@@ -474,8 +482,62 @@ impl Scenario {
             1500.0,
             "between 20 and 1500",
         )?;
+        let d = &raw.dwell;
+        for (k, name) in d.criteria.iter().enumerate() {
+            if !["interpass", "strength", "humping", "bond"].contains(&name.as_str()) {
+                return Err(c.fail(
+                    "dwell",
+                    "criteria",
+                    format!("[{}]", d.criteria.join(", ")),
+                    &format!(
+                        "names among interpass, strength, humping, bond (entry {k} is \"{name}\")"
+                    ),
+                ));
+            }
+        }
+        if d.policy != "revolution" {
+            return Err(c.fail(
+                "dwell",
+                "policy",
+                format!("\"{}\"", d.policy),
+                "\"revolution\" (dwells before a revolution's first preheat reading)",
+            ));
+        }
+        c.range(
+            "dwell",
+            "strength_loss_c",
+            d.strength_loss_c,
+            100.0,
+            1500.0,
+            "between 100 and 1500",
+        )?;
+        c.positive("dwell", "max_dwell_s", d.max_dwell_s, 86_400.0)?;
+        c.range(
+            "dwell",
+            "margin_c",
+            d.margin_c,
+            0.0,
+            100.0,
+            "between 0 and 100",
+        )?;
+        c.range(
+            "dwell",
+            "count_weight_s",
+            d.count_weight_s,
+            0.0,
+            86_400.0,
+            "between 0 and 86400",
+        )?;
+        let on = |n: &str| d.criteria.iter().any(|x| x == n);
         let dwell = DwellSettings {
             interpass_max_k: raw.dwell.interpass_max_c + KELVIN,
+            interpass: on("interpass"),
+            strength_loss_k: on("strength").then_some(d.strength_loss_c + KELVIN),
+            humping: on("humping"),
+            bond: on("bond"),
+            max_dwell_s: d.max_dwell_s,
+            margin_k: d.margin_c,
+            count_weight_s: d.count_weight_s,
         };
         let pl = &raw.planner;
         if !(8..=100_000).contains(&pl.n_points) {

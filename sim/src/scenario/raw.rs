@@ -196,12 +196,35 @@ impl Default for RawThermal {
 #[serde(deny_unknown_fields, default)]
 pub struct RawDwell {
     pub interpass_max_c: f64,
+    /// The layer beneath must be below this when the torch returns (strength of the wall).
+    pub strength_loss_c: f64,
+    /// Criteria in force: any of "interpass", "strength", "humping", "bond".
+    pub criteria: Vec<String>,
+    /// Where dwells may go: "revolution" (before each revolution's first preheat reading).
+    pub policy: String,
+    /// Longest single dwell.
+    pub max_dwell_s: f64,
+    /// Aim this far below a temperature limit.
+    pub margin_c: f64,
+    /// The cost of one arc stop in seconds of dwell, when reporting the trade-off.
+    pub count_weight_s: f64,
 }
 
 impl Default for RawDwell {
     fn default() -> Self {
         Self {
             interpass_max_c: 200.0,
+            strength_loss_c: 550.0,
+            criteria: vec![
+                "interpass".into(),
+                "strength".into(),
+                "humping".into(),
+                "bond".into(),
+            ],
+            policy: "revolution".into(),
+            max_dwell_s: 600.0,
+            margin_c: 2.0,
+            count_weight_s: 0.0,
         }
     }
 }

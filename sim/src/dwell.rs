@@ -1,0 +1,491 @@
+//! The cooling-dwell planner: where to pause the arc and for how long so that no risk criterion
+//! is broken, with as little dwell as possible, and the baselines it is judged against.
+//!
+//! The search walks the build once, revolution by revolution, from checkpoints of the thermal run
+//! (a clone of its state). A revolution is simulated without a dwell; if it breaks a criterion,
+//! two remedies are sized and the cheaper kept (dwell plus `count_weight_s` per arc stop):
+//!
+//! - one dwell before the revolution's first preheat reading (the deposit during whose arc the
+//!   torch is `lead_mm` upstream of its first point), so that the whole revolution is laid on
+//!   metal that has cooled: the smallest such dwell, from a few simulations of that revolution;
+//! - dwells inside the revolution, each just before the deposit whose arc would break a
+//!   criterion, as short as keeps it safe. Near a closing point a revolution lasts seconds and
+//!   heats its own substrate as it goes: no dwell before it can keep it under the limit, and
+//!   only these can.
+
+use crate::risk::{Risk, judge};
+use crate::scenario::Scenario;
+use planner::plan::Plan;
+use thermal::schedule::Deposit;
+use thermal::wall::{Support, WallModel, WallRun, WallSettings, read_points};
+
+/// Tries of one revolution's dwell search before it gives up at the longest dwell.
+const MAX_TRIES: usize = 8;
+
+/// A revolution and where its dwell goes.
+#[derive(Debug, Clone, Copy)]
+struct Revolution {
+    /// Its points.
+    first: usize,
+    end: usize,
+    /// Its dwell goes before this deposit; it is simulated from here to the next one's.
+    dwell_at: usize,
+}
+
+fn revolutions(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<Revolution> {
+    let read = read_points(deps, lead);
+    let mut revs: Vec<Revolution> = Vec::new();
+    for (i, q) in pl.points.iter().enumerate() {
+        if i == 0 || q.layer != pl.points[i - 1].layer {
+            revs.push(Revolution {
+                first: i,
+                end: i + 1,
+                dwell_at: read[i].unwrap_or(0),
+            });
+        } else {
+            revs.last_mut().expect("revolution").end = i + 1;
+        }
+    }
+    revs
+}
+
+#[derive(Debug, Clone)]
+pub struct DwellPlan {
+    /// Per deposit: dwell before it, s, and why.
+    pub dwell_s: Vec<f64>,
+    pub reason: Vec<Option<Risk>>,
+    /// Points still at risk at the longest dwell.
+    pub unresolved: Vec<usize>,
+    /// Deposits simulated by the search, in whole builds.
+    pub cost_builds: f64,
+}
+
+/// The first risky point among `points`, with the hottest preheat among them.
+fn check(
+    s: &Scenario,
+    run: &WallRun,
+    range: std::ops::Range<usize>,
+    margin: f64,
+) -> (Option<(usize, Risk)>, f64) {
+    let mut first = None;
+    let mut hottest = f64::NEG_INFINITY;
+    for i in range {
+        let p = &run.points()[i];
+        let support = run.support(i);
+        if support == Support::Deposit {
+            hottest = hottest.max(p.preheat);
+        }
+        if first.is_none()
+            && let Some(r) = judge(s, p, support, margin)
+        {
+            first = Some((i, r));
+        }
+    }
+    (first, hottest)
+}
+
+/// Lay deposits `from..to`, the first after `dwell` seconds.
+fn advance(run: &mut WallRun, deps: &[Deposit], from: usize, to: usize, dwell: f64) {
+    for i in from..to {
+        run.deposit(deps, i, if i == from { dwell } else { 0.0 });
+    }
+}
+
+/// Per deposit, the points whose preheat is read during its arc, and itself (its pool).
+fn judged_at(deps: &[Deposit], lead: f64) -> Vec<Vec<usize>> {
+    let mut at: Vec<Vec<usize>> = (0..deps.len()).map(|i| vec![i]).collect();
+    for (k, j) in read_points(deps, lead).into_iter().enumerate() {
+        if let Some(j) = j
+            && j != k
+        {
+            at[j].push(k);
+        }
+    }
+    at
+}
+
+/// Point dwells over deposits `a..b` from `start`: each deposit is tried without a dwell, and
+/// given the shortest one that keeps the points judged at it safe when it is not.
+#[allow(clippy::too_many_arguments)]
+fn point_dwells(
+    s: &Scenario,
+    deps: &[Deposit],
+    judged: &[Vec<usize>],
+    start: &WallRun,
+    a: usize,
+    b: usize,
+    simulated: &mut f64,
+) -> (WallRun, Vec<(usize, f64, Risk)>, Vec<usize>) {
+    let ambient = s.thermal.ambient_k;
+    let target = s.dwell.interpass_max_k - s.dwell.margin_k;
+    let mut x = start.clone();
+    let mut dwells = Vec::new();
+    let mut unresolved = Vec::new();
+    let risk_at = |r: &WallRun, i: usize| -> (Option<Risk>, f64) {
+        let mut hottest = f64::NEG_INFINITY;
+        let mut first = None;
+        for &k in &judged[i] {
+            let p = &r.points()[k];
+            if r.support(k) == Support::Deposit {
+                hottest = hottest.max(p.preheat);
+            }
+            if first.is_none() {
+                first = judge(s, p, r.support(k), s.dwell.margin_k);
+            }
+        }
+        (first, hottest)
+    };
+    for i in a..b {
+        let mut trial = x.clone();
+        trial.deposit(deps, i, 0.0);
+        *simulated += 1.0;
+        let (risk, hot0) = risk_at(&trial, i);
+        let Some(why) = risk else {
+            x = trial;
+            continue;
+        };
+        let mut tries = vec![(0.0, hot0)];
+        let (mut fail, mut pass): (f64, Option<(f64, WallRun)>) = (0.0, None);
+        let mut d: f64 = 5.0;
+        for _ in 0..MAX_TRIES {
+            d = d.clamp(0.0, s.dwell.max_dwell_s);
+            let mut t = x.clone();
+            t.deposit(deps, i, d);
+            *simulated += 1.0;
+            let (r, hot) = risk_at(&t, i);
+            tries.push((d, hot));
+            if r.is_none() {
+                let close = d - fail <= (0.1 * d).max(0.5);
+                pass = Some((d, t));
+                if close {
+                    break;
+                }
+            } else {
+                fail = fail.max(d);
+                if d >= s.dwell.max_dwell_s {
+                    break;
+                }
+            }
+            d = next_dwell(&tries, fail, pass.as_ref().map(|p| p.0), ambient, target);
+        }
+        match pass {
+            Some((d, t)) => {
+                dwells.push((i, d, why));
+                x = t;
+            }
+            None => {
+                let mut t = x.clone();
+                t.deposit(deps, i, s.dwell.max_dwell_s);
+                dwells.push((i, s.dwell.max_dwell_s, why));
+                unresolved.extend(
+                    judged[i]
+                        .iter()
+                        .copied()
+                        .filter(|&k| judge(s, &t.points()[k], t.support(k), 0.0).is_some()),
+                );
+                x = t;
+            }
+        }
+    }
+    (x, dwells, unresolved)
+}
+
+pub fn plan_dwells(
+    s: &Scenario,
+    pl: &Plan,
+    deps: &[Deposit],
+    settings: &WallSettings,
+) -> Result<DwellPlan, String> {
+    let n = deps.len();
+    let revs = revolutions(pl, deps, settings.lead);
+    let judged = judged_at(deps, settings.lead);
+    let mut run = WallRun::new(WallModel::build(deps, settings)?, deps, settings);
+    let mut plan = DwellPlan {
+        dwell_s: vec![0.0; n],
+        reason: vec![None; n],
+        unresolved: vec![],
+        cost_builds: 0.0,
+    };
+    let mut simulated = 0usize;
+    let w = s.dwell.count_weight_s;
+    let mut last_dwell = 0.0f64;
+    let mut cursor = 0;
+    for (r, rev) in revs.iter().enumerate() {
+        let seg_end = revs.get(r + 1).map_or(n, |x| x.dwell_at).max(rev.dwell_at);
+        if cursor < rev.dwell_at {
+            advance(&mut run, deps, cursor, rev.dwell_at, 0.0);
+            simulated += rev.dwell_at - cursor;
+        }
+        let segment = Segment {
+            s,
+            deps,
+            judged: &judged,
+            rev: *rev,
+            seg_end,
+        };
+        let (x0, risk0, _) = segment.try_dwell(&run, 0.0, &mut simulated);
+        let Some((_, why)) = risk0 else {
+            run = x0;
+            cursor = seg_end;
+            continue;
+        };
+        // Dwells inside the revolution, just where they are needed: the least dwell time.
+        let mut point_sim = 0.0;
+        let (xp, point, point_unresolved) = point_dwells(
+            s,
+            deps,
+            &judged,
+            &run,
+            rev.dwell_at,
+            seg_end,
+            &mut point_sim,
+        );
+        simulated += point_sim as usize;
+        let point_cost = point.iter().map(|p| p.1).sum::<f64>() + w * point.len() as f64;
+        // One dwell before the revolution: one arc stop. Sized only when stops carry a weight or
+        // the point dwells cannot make the revolution safe.
+        let whole = if w > 0.0 || !point_unresolved.is_empty() {
+            segment.smallest_dwell(&run, last_dwell, &mut simulated)
+        } else {
+            None
+        };
+        match whole {
+            Some((d, x)) if d + w < point_cost || !point_unresolved.is_empty() => {
+                plan.dwell_s[rev.dwell_at] = d;
+                plan.reason[rev.dwell_at] = Some(why);
+                last_dwell = d;
+                run = x;
+            }
+            _ => {
+                for &(i, d, why) in &point {
+                    plan.dwell_s[i] = d;
+                    plan.reason[i] = Some(why);
+                }
+                plan.unresolved.extend(point_unresolved);
+                run = xp;
+            }
+        }
+        // A trial that stopped at its first risky point leaves the segment unfinished.
+        if run.laid < seg_end {
+            let from = run.laid;
+            advance(&mut run, deps, from, seg_end, 0.0);
+            simulated += seg_end - from;
+        }
+        cursor = seg_end;
+    }
+    plan.cost_builds = simulated as f64 / n.max(1) as f64;
+    Ok(plan)
+}
+
+/// One revolution's stretch of deposits, from its dwell point to the next one's.
+struct Segment<'a> {
+    s: &'a Scenario,
+    deps: &'a [Deposit],
+    judged: &'a [Vec<usize>],
+    rev: Revolution,
+    seg_end: usize,
+}
+
+impl Segment<'_> {
+    /// Lay the stretch after a dwell of `d` from `start`, stopping at the first risky point of the
+    /// revolution: failing trials are cheap.
+    fn try_dwell(
+        &self,
+        start: &WallRun,
+        d: f64,
+        simulated: &mut usize,
+    ) -> (WallRun, Option<(usize, Risk)>, f64) {
+        let (s, rev) = (self.s, self.rev);
+        let mut x = start.clone();
+        for i in rev.dwell_at..self.seg_end {
+            x.deposit(self.deps, i, if i == rev.dwell_at { d } else { 0.0 });
+            *simulated += 1;
+            let risky = self.judged[i].iter().any(|&k| {
+                k >= rev.first
+                    && k < rev.end
+                    && judge(s, &x.points()[k], x.support(k), s.dwell.margin_k).is_some()
+            });
+            if risky {
+                break;
+            }
+        }
+        let (risk, hottest) = check(s, &x, rev.first..rev.end, s.dwell.margin_k);
+        (x, risk, hottest)
+    }
+
+    /// The smallest dwell before the revolution that keeps it safe: cooling of the excess above
+    /// ambient is close to exponential, so two tries give its time constant and the dwell that
+    /// reaches the target; then the bracket closes to 10 %.
+    fn smallest_dwell(
+        &self,
+        start: &WallRun,
+        guess: f64,
+        simulated: &mut usize,
+    ) -> Option<(f64, WallRun)> {
+        let s = self.s;
+        let (ambient, target) = (
+            s.thermal.ambient_k,
+            s.dwell.interpass_max_k - s.dwell.margin_k,
+        );
+        let (_, _, hot0) = self.try_dwell(start, 0.0, simulated);
+        let mut tries = vec![(0.0, hot0)];
+        let mut d = if guess > 0.0 { guess } else { 10.0 };
+        let (mut fail, mut best): (f64, Option<(f64, WallRun)>) = (0.0, None);
+        for _ in 0..MAX_TRIES {
+            d = d.clamp(0.0, s.dwell.max_dwell_s);
+            let (x, risk, hot) = self.try_dwell(start, d, simulated);
+            tries.push((d, hot));
+            if risk.is_none() {
+                let close = d - fail <= (0.1 * d).max(0.5);
+                best = Some((d, x));
+                if close {
+                    break;
+                }
+            } else {
+                fail = fail.max(d);
+                if d >= s.dwell.max_dwell_s {
+                    break;
+                }
+            }
+            d = next_dwell(&tries, fail, best.as_ref().map(|b| b.0), ambient, target);
+        }
+        best
+    }
+}
+
+/// The next dwell to try: from the exponential fit of the last two tries (T − T_a ∝ e^{−d/τ}),
+/// kept inside the bracket (largest failing, smallest passing); bisection when the fit fails.
+fn next_dwell(
+    tries: &[(f64, f64)],
+    fail: f64,
+    pass: Option<f64>,
+    ambient: f64,
+    target: f64,
+) -> f64 {
+    let n = tries.len();
+    let guess = if n >= 2 {
+        let ((d0, t0), (d1, t1)) = (tries[n - 2], tries[n - 1]);
+        let (e0, e1, et) = (t0 - ambient, t1 - ambient, target - ambient);
+        if e0 > 0.0 && e1 > 0.0 && et > 0.0 && e1 < e0 && d1 != d0 {
+            let tau = (d1 - d0) / (e0 / e1).ln();
+            Some(d1 + tau * (e1 / et).ln())
+        } else {
+            None
+        }
+    } else {
+        None
+    };
+    match (guess, pass) {
+        (Some(g), Some(p)) if g > fail && g < p => g,
+        // No pass yet: trials stop at their first risky point, so the fit sees only a little of
+        // the excess; grow at least geometrically.
+        (Some(g), None) => (g * 1.05).max(1.5 * fail),
+        (_, Some(p)) => 0.5 * (fail + p),
+        _ => (2.0 * fail).max(10.0),
+    }
+}
+
+/// Simulate the build with `dwell_s` and return the first risky point, if any; stops there. A
+/// point's preheat is read upstream of it, so once it is laid it can be judged.
+pub fn first_risk(
+    s: &Scenario,
+    deps: &[Deposit],
+    settings: &WallSettings,
+    dwell_s: &[f64],
+) -> Result<Option<(usize, Risk)>, String> {
+    let mut run = WallRun::new(WallModel::build(deps, settings)?, deps, settings);
+    for i in 0..deps.len() {
+        run.deposit(deps, i, dwell_s[i]);
+        if let Some(r) = judge(s, &run.points()[i], run.support(i), 0.0) {
+            return Ok(Some((i, r)));
+        }
+    }
+    Ok(None)
+}
+
+/// Dwell positions of the revolution policy: the deposit before which each revolution's dwell goes.
+pub fn dwell_points(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<usize> {
+    revolutions(pl, deps, lead)
+        .iter()
+        .skip(1)
+        .map(|r| r.dwell_at)
+        .collect()
+}
+
+/// The smallest uniform dwell per revolution that keeps every point safe, by bisection over whole
+/// builds (each stopped at its first risky point). `None` if even `max` fails.
+pub fn uniform_baseline(
+    s: &Scenario,
+    pl: &Plan,
+    deps: &[Deposit],
+    settings: &WallSettings,
+) -> Result<Option<f64>, String> {
+    let at = dwell_points(pl, deps, settings.lead);
+    let with = |d: f64| {
+        let mut v = vec![0.0; deps.len()];
+        for &i in &at {
+            v[i] = d;
+        }
+        v
+    };
+    let max = s.dwell.max_dwell_s;
+    if first_risk(s, deps, settings, &with(max))?.is_some() {
+        return Ok(None);
+    }
+    let (mut lo, mut hi) = (0.0, max);
+    while hi - lo > (0.02 * hi).max(0.5) {
+        let mid = 0.5 * (lo + hi);
+        if first_risk(s, deps, settings, &with(mid))?.is_some() {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(Some(hi))
+}
+
+/// "Wait until the last layer is below the limit": before each revolution's dwell point, wait
+/// until every node of the previous revolution is below the interpass limit (capped at the
+/// longest dwell). Returns the dwells it waited.
+pub fn wait_until_cool(
+    s: &Scenario,
+    pl: &Plan,
+    deps: &[Deposit],
+    settings: &WallSettings,
+) -> Result<Vec<f64>, String> {
+    let revs = revolutions(pl, deps, settings.lead);
+    let mut run = WallRun::new(WallModel::build(deps, settings)?, deps, settings);
+    let mut dwell = vec![0.0; deps.len()];
+    let mut cursor = 0;
+    for (r, rev) in revs.iter().enumerate().skip(1) {
+        advance(&mut run, deps, cursor, rev.dwell_at, 0.0);
+        cursor = rev.dwell_at;
+        let prev = revs[r - 1];
+        let nodes: Vec<usize> = (prev.first..prev.end.min(cursor))
+            .map(|i| run.node_of(i))
+            .collect();
+        let hot = |run: &WallRun| {
+            nodes
+                .iter()
+                .map(|&k| run.temperatures()[k])
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        let mut waited = 0.0;
+        while hot(&run) > s.dwell.interpass_max_k && waited < s.dwell.max_dwell_s {
+            run.cool(1.0);
+            waited += 1.0;
+        }
+        dwell[rev.dwell_at] = waited;
+        // The waiting is done: lay the rest of this stretch.
+        let end = revs
+            .get(r + 1)
+            .map_or(deps.len(), |x| x.dwell_at)
+            .max(cursor);
+        if end > cursor {
+            run.deposit(deps, cursor, 0.0);
+            advance(&mut run, deps, cursor + 1, end, 0.0);
+        }
+        cursor = end;
+    }
+    Ok(dwell)
+}

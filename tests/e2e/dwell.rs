@@ -1,0 +1,75 @@
+//! The dwell planner through `waamtwin dwell` on a small closed dome.
+
+use crate::{scratch, waamtwin};
+
+fn csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    (
+        header,
+        lines
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect(),
+    )
+}
+
+fn column(h: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
+    let k = h
+        .iter()
+        .position(|x| x == name)
+        .unwrap_or_else(|| panic!("no column {name}"));
+    rows.iter().map(|r| r[k].parse().unwrap()).collect()
+}
+
+#[test]
+fn planned_dwells_keep_a_closed_dome_under_the_limit() {
+    let dir = scratch("dwell_dome");
+    std::fs::write(
+        dir.join("s.toml"),
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 40.0\nedge_mm = 2.5\n[planner]\nn_points = 60\n[thermal]\nplate_mm = [150.0, 150.0, 10.0]\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = waamtwin(&[
+        "dwell",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("dwell.json")).unwrap()).unwrap();
+    eprintln!("dwell: {}", serde_json::to_string(&d).unwrap());
+    // Without dwells the closing zone overheats, and the run says so.
+    assert!(d["first_risk_before"]["i"].is_u64());
+    // With the planned dwells, a fresh simulation of the dwelled path has every point safe.
+    assert_eq!(d["risky_points_after"], 0);
+    let t: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("thermal.json")).unwrap()).unwrap();
+    assert!(t["first_overheat"].is_null());
+    let total = d["total_dwell_s"].as_f64().unwrap();
+    let count = d["dwell_count"].as_u64().unwrap() as usize;
+    assert!(total > 0.0 && count > 0);
+    // The files agree with each other.
+    let (dh, drows) = csv(&out.join("dwells.csv"));
+    assert_eq!(dh[..5].join(","), "i,layer,t_s,dwell_s,reason");
+    assert_eq!(drows.len(), count);
+    let sum = |v: Vec<f64>| v.iter().sum::<f64>();
+    assert!((sum(column(&dh, &drows, "dwell_s")) - total).abs() < 0.01 * count as f64);
+    let (ph, prows) = csv(&out.join("path.csv"));
+    assert!((sum(column(&ph, &prows, "dwell_s")) - total).abs() < 1e-3 * count as f64 + 1e-6);
+    let (lh, lrows) = csv(&out.join("layers.csv"));
+    assert!((sum(column(&lh, &lrows, "dwell_s")) - total).abs() < 1e-3 * count as f64 + 1e-6);
+    let (before, after) = (
+        d["build_time_s"]["before"].as_f64().unwrap(),
+        d["build_time_s"]["after"].as_f64().unwrap(),
+    );
+    assert!(
+        (after - before - total).abs() < 1e-6 * after,
+        "{before} + {total} vs {after}"
+    );
+    // The baselines are there: wait-until-cool is reported with whether it is safe.
+    assert!(d["baselines"]["wait_until_cool"]["total_dwell_s"].is_f64());
+    assert!(d["baselines"]["wait_until_cool"]["safe"].is_boolean());
+}
