@@ -135,6 +135,7 @@ fn point_dwells(
         }
         (first, hottest)
     };
+    #[allow(clippy::needless_range_loop)] // i indexes deposits, judged lists and trials alike
     for i in a..b {
         let mut trial = x.clone();
         trial.deposit(deps, i, 0.0);
@@ -394,8 +395,8 @@ pub fn first_risk(
     dwell_s: &[f64],
 ) -> Result<Option<(usize, Risk)>, String> {
     let mut run = WallRun::new(WallModel::build(deps, settings)?, deps, settings);
-    for i in 0..deps.len() {
-        run.deposit(deps, i, dwell_s[i]);
+    for (i, &dwell) in dwell_s.iter().enumerate().take(deps.len()) {
+        run.deposit(deps, i, dwell);
         if let Some(r) = judge(s, &run.points()[i], run.support(i), 0.0) {
             return Ok(Some((i, r)));
         }

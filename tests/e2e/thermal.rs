@@ -42,7 +42,7 @@ fn simulate(
 fn energy_balance_over_a_whole_build() {
     let (t, layers, dir) = simulate(
         "thermal_balance",
-        "[part]\nshape = \"cylinder\"\nradius_mm = 40.0\nheight_mm = 20.0\nedge_mm = 2.0\n[thermal]\nplate_mm = [150.0, 150.0, 10.0]\n",
+        "[part]\nshape = \"cylinder\"\nradius_mm = 40.0\nheight_mm = 20.0\nedge_mm = 2.0\n[thermal]\nplate_mm = [150.0, 150.0, 10.0]\n[bead]\nhot_height_loss_per_k = 2e-4\n",
     );
     for key in [
         "model",
@@ -72,14 +72,24 @@ fn energy_balance_over_a_whole_build() {
     assert!(err.abs() < 0.01 && (t["energy_balance_error"].as_f64().unwrap() - err).abs() < 1e-9);
     assert!(stored > 0.0 && lost > 0.0);
     assert_eq!(layers.len(), 10);
-    // path.csv carries the per-point results.
+    // path.csv carries the per-point results, and the as-built beads follow the hot-metal law at
+    // the simulated preheat: height = planned·(1 − 2e-4·(preheat − 20 °C)), width the same area.
     let path = std::fs::read_to_string(dir.join("path.csv")).unwrap();
-    assert!(
-        path.lines()
-            .next()
-            .unwrap()
-            .ends_with(",t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s")
-    );
+    let mut lines = path.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert!(header.join(",").ends_with(",t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s,built_height_mm,built_width_mm,stickout_mm"));
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    for l in lines {
+        let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+        let f = (1.0 - 2e-4 * (v[col("preheat_c")] - 20.0).max(0.0)).max(0.5);
+        assert!(
+            (v[col("built_height_mm")] - v[col("deposit_mm")] * f).abs() < 2e-4,
+            "{l}"
+        );
+        assert!((v[col("built_width_mm")] * f - 5.0).abs() < 5e-4, "{l}");
+    }
+    assert!(t["as_built"]["height_error_mm"]["min"].as_f64().unwrap() < -0.1);
+    assert!(t["as_built"]["stickout_mm"]["max"].as_f64().unwrap() > 15.1);
 }
 
 /// A closed dome with no dwell: the revolutions shorten near the closing point and the preheat

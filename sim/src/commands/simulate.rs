@@ -197,6 +197,22 @@ pub fn layers(pl: &Plan, sim: &Simulation, dwell_s: &[f64]) -> Vec<LayerRow> {
     rows
 }
 
+/// Predicted as-built beads: the plan's deposits stacked with the hot-metal law at the simulated
+/// preheat (bead model, `[bead]`).
+pub fn as_built(s: &Scenario, pl: &Plan, sim: &Simulation) -> Vec<bead_model::as_built::BuiltBead> {
+    let planned: Vec<f64> = pl.points.iter().map(|q| q.deposit_mm * 1e-3).collect();
+    let generator: Vec<usize> = pl.points.iter().map(|q| q.generator).collect();
+    let preheat: Vec<f64> = sim.result.points.iter().map(|p| p.preheat).collect();
+    bead_model::as_built::stack(
+        &planned,
+        &generator,
+        &preheat,
+        s.process.bead_width_m,
+        s.bead.stickout_m,
+        &s.bead.hot_metal,
+    )
+}
+
 /// thermal.json, layers.csv, and path.csv again with times, dwells and per-point results.
 pub fn write_thermal(
     dir: &mut RunDir,
@@ -205,6 +221,9 @@ pub fn write_thermal(
     sim: &Simulation,
     dwell_s: &[f64],
 ) -> Result<()> {
+    let built = as_built(s, pl, sim);
+    let (err_lo, err_hi) = planner::plan::range(built.iter().map(|b| b.height_error * 1e3));
+    let (so_lo, so_hi) = planner::plan::range(built.iter().map(|b| b.stickout * 1e3));
     let r = &sim.result;
     let max_preheat = r
         .points
@@ -226,6 +245,11 @@ pub fn write_thermal(
         "steps": r.steps,
         "cg_iterations": r.cg_iterations,
         "underpowered_deposits": r.underpowered,
+        "as_built": {
+            "hot_height_loss_per_k": s.bead.hot_metal.height_loss_per_k,
+            "height_error_mm": {"min": err_lo, "max": err_hi},
+            "stickout_mm": {"min": so_lo, "max": so_hi},
+        },
         "wall_s": sim.wall_s,
     });
     dir.write_json("thermal.json", &json)?;
@@ -250,14 +274,14 @@ pub fn write_thermal(
     }
     dir.write("layers.csv", csv.as_bytes())?;
     let mut path = String::from(
-        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s\n",
+        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s,built_height_mm,built_width_mm,stickout_mm\n",
     );
     let b = beads(s, pl);
     for (i, q) in pl.points.iter().enumerate() {
         let (bead, d, p) = (&b.beads[i], &sim.deposits[i], &r.points[i]);
         let _ = writeln!(
             path,
-            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{},{:.3},{:.3},{:.2},{:.2},{:.3},{:.3}",
+            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{},{:.3},{:.3},{:.2},{:.2},{:.3},{:.3},{:.5},{:.5},{:.4}",
             q.position.x,
             q.position.y,
             q.position.z,
@@ -274,7 +298,10 @@ pub fn write_thermal(
             p.preheat - C,
             p.peak - C,
             p.pool_length * 1e3,
-            p.time_above
+            p.time_above,
+            built[i].height * 1e3,
+            built[i].width * 1e3,
+            built[i].stickout * 1e3
         );
     }
     dir.write("path.csv", path.as_bytes())?;
