@@ -32,13 +32,7 @@ fn main() {
         mesh.n_faces()
     );
     let (t_setup, solver) = best_of(3, || {
-        HeatSolver::new(
-            mesh,
-            &topo.edges,
-            &topo.is_boundary_vertex,
-            HeatOptions::default(),
-        )
-        .expect("factor")
+        HeatSolver::new(mesh, &topo.is_boundary_vertex, HeatOptions::default()).expect("factor")
     });
     println!("setup (operators + symbolic + 3 numeric factorisations): {t_setup:.3} s");
     let reps = 20;
@@ -52,7 +46,6 @@ fn main() {
     println!("solve, one vertex source (mean of {reps}): {t_single:.4} s");
     let plain = HeatSolver::new(
         mesh,
-        &topo.edges,
         &topo.is_boundary_vertex,
         HeatOptions {
             exact_rings: 0,

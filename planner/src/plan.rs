@@ -117,13 +117,8 @@ const BRANCH_LEVELS: usize = 64;
 
 pub fn plan(part: &Part, p: &PlanParams) -> Result<Plan, PlanError> {
     let (mesh, topo) = (&part.mesh, &part.topology);
-    let solver = HeatSolver::new(
-        mesh,
-        &topo.edges,
-        &topo.is_boundary_vertex,
-        HeatOptions::default(),
-    )
-    .map_err(PlanError::Factor)?;
+    let solver = HeatSolver::new(mesh, &topo.is_boundary_vertex, HeatOptions::default())
+        .map_err(PlanError::Factor)?;
     let surface = ClosestPoint::new(mesh);
     let tracer = Tracer::new(mesh, topo);
 

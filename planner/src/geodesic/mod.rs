@@ -21,10 +21,11 @@
 
 pub mod path;
 
-use crate::geometry::Operators;
+use crate::geometry::intrinsic::Intrinsic;
 use crate::geometry::sparse::{Factor, FactorError, Symbolic};
+use crate::geometry::{FaceVector, Operators};
 use crate::mesh::TriMesh;
-use nalgebra::{Point3, Vector3};
+use nalgebra::Point3;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
@@ -62,6 +63,10 @@ pub struct HeatOptions {
     /// point-source singularity of step 3, where the heat method is least accurate (measured in
     /// PERFORMANCE.md).
     pub exact_rings: usize,
+    /// Build the operators on the intrinsic Delaunay triangulation of the surface (edge flips):
+    /// non-negative cotangent weights on any mesh, and no change on a mesh that is Delaunay
+    /// already, like the part library's (measured in PERFORMANCE.md).
+    pub intrinsic_delaunay: bool,
 }
 
 impl Default for HeatOptions {
@@ -69,6 +74,7 @@ impl Default for HeatOptions {
         Self {
             time_factor: 1.0,
             exact_rings: 2,
+            intrinsic_delaunay: true,
         }
     }
 }
@@ -93,6 +99,7 @@ pub struct HeatSolver<'m> {
     anchor: u32,
     cache: Mutex<Vec<(Vec<u32>, Arc<Factor>)>>,
     options: HeatOptions,
+    flips: usize,
 }
 
 impl<'m> HeatSolver<'m> {
@@ -100,11 +107,15 @@ impl<'m> HeatSolver<'m> {
     /// `boundary` flags its boundary vertices (both from [`crate::mesh::Topology`]).
     pub fn new(
         mesh: &'m TriMesh,
-        edges: &[[u32; 2]],
         boundary: &[bool],
         options: HeatOptions,
     ) -> Result<Self, FactorError> {
-        let ops = Operators::new(mesh, edges);
+        let triangulation = if options.intrinsic_delaunay {
+            Intrinsic::delaunay(mesh)
+        } else {
+            Intrinsic::from_mesh(mesh)
+        };
+        let ops = Operators::new(&triangulation, mesh.n_vertices());
         let symbolic = Symbolic::new(ops.pattern.clone())?;
         let t = options.time_factor * ops.mean_edge * ops.mean_edge;
         let heat = ops.heat_matrix(t);
@@ -134,6 +145,7 @@ impl<'m> HeatSolver<'m> {
             anchor,
             cache: Mutex::new(Vec::new()),
             options,
+            flips: triangulation.flips,
         })
     }
 
@@ -143,6 +155,11 @@ impl<'m> HeatSolver<'m> {
 
     pub fn operators(&self) -> &Operators {
         &self.ops
+    }
+
+    /// Edge flips the intrinsic Delaunay triangulation took (0 when it is off).
+    pub fn flips(&self) -> usize {
+        self.flips
     }
 
     /// Geodesic distance from the nearest of `vertices` to every vertex.
@@ -194,25 +211,20 @@ impl<'m> HeatSolver<'m> {
         }
         // Step 2: the normalised negative gradient.
         use rayon::prelude::*;
-        let field: Vec<Vector3<f64>> = (0..self.mesh.n_faces())
+        let field: Vec<FaceVector> = (0..self.ops.faces.len())
             .into_par_iter()
             .map(|f| {
-                let g = self.ops.face_gradient(self.mesh, f, &u);
-                let len = g.norm();
+                let g = self.ops.face_gradient(f, &u);
+                let len = g[0].hypot(g[1]);
                 if len > 0.0 && len.is_finite() {
-                    -g / len
+                    [-g[0] / len, -g[1] / len]
                 } else {
-                    Vector3::zeros()
+                    [0.0, 0.0]
                 }
             })
             .collect();
         // Step 3: L φ = −∇·X with the sources pinned.
-        let rhs: Vec<f64> = self
-            .ops
-            .divergence(self.mesh, &field)
-            .iter()
-            .map(|d| -d)
-            .collect();
+        let rhs: Vec<f64> = self.ops.divergence(&field).iter().map(|d| -d).collect();
         let pins = self.pins(sources);
         let mut phi = if pins.len() <= GREEN_MAX_PINS && !pins.iter().any(|p| p.0 == self.anchor) {
             self.poisson_green(rhs, &pins)

@@ -9,7 +9,6 @@ pub(crate) fn part(shape: Shape, edge: f64) -> Part {
 pub(crate) fn solver(p: &Part) -> HeatSolver<'_> {
     HeatSolver::new(
         &p.mesh,
-        &p.topology.edges,
         &p.topology.is_boundary_vertex,
         HeatOptions::default(),
     )
@@ -407,4 +406,87 @@ fn same_distances_on_one_or_two_threads() {
         })
     };
     assert!(run(1) == run(2), "results differ between 1 and 2 threads");
+}
+
+/// A flat sheared grid with every diagonal the wrong way (opposite angles of 122° each): the
+/// cotan Laplacian has negative weights there; on the intrinsic Delaunay triangulation of the same
+/// surface it has none. Geodesics in the plane are straight lines.
+#[test]
+fn intrinsic_delaunay_on_an_obtuse_mesh() {
+    let n = 40;
+    let mut positions = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            positions.push(nalgebra::Point3::new(
+                i as f64 + 0.8 * j as f64,
+                0.5 * j as f64,
+                0.0,
+            ));
+        }
+    }
+    let id = |i: usize, j: usize| (j * n + i) as u32;
+    let mut faces = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let p = Part::from_mesh(
+        crate::mesh::TriMesh::new(positions, faces),
+        LowerLoop::LowestZ,
+    )
+    .unwrap();
+    let src = id(n / 2, n / 2);
+    let q = p.mesh.positions[src as usize];
+    let err = |idt: bool| {
+        let s = HeatSolver::new(
+            &p.mesh,
+            &p.topology.is_boundary_vertex,
+            HeatOptions {
+                intrinsic_delaunay: idt,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let d = s.distance_from_vertices(&[src]);
+        let (mut sum, mut max, mut k) = (0.0, 0.0f64, 0);
+        for (x, di) in p.mesh.positions.iter().zip(&d) {
+            let exact = (x - q).norm();
+            if exact > 3.0 {
+                let rel = (di - exact).abs() / exact;
+                sum += rel;
+                max = max.max(rel);
+                k += 1;
+            }
+        }
+        (sum / k as f64, max, s.flips())
+    };
+    let (plain_mean, plain_max, _) = err(false);
+    let (idt_mean, idt_max, flips) = err(true);
+    eprintln!(
+        "obtuse grid: plain mean {:.3}% max {:.3}%; intrinsic Delaunay ({flips} flips) mean {:.3}% max {:.3}%",
+        100.0 * plain_mean,
+        100.0 * plain_max,
+        100.0 * idt_mean,
+        100.0 * idt_max
+    );
+    assert!(flips >= (n - 2) * (n - 2));
+    assert!(
+        idt_mean < 0.5 * plain_mean,
+        "intrinsic Delaunay should at least halve the mean error"
+    );
+}
+
+/// The ring mesher zips rings of different counts; a few of the zipped pairs are not Delaunay.
+#[test]
+fn the_library_meshes_are_nearly_delaunay() {
+    let p = part(Shape::Hemisphere { radius_mm: 40.0 }, 2.0);
+    let s = solver(&p);
+    eprintln!(
+        "hemisphere: {} flips for {} faces",
+        s.flips(),
+        p.mesh.n_faces()
+    );
+    assert!(s.flips() * 50 < p.mesh.n_faces(), "{} flips", s.flips());
 }

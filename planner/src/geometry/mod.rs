@@ -4,24 +4,30 @@
 //! L = −Δ (L_ii = Σ_j w_ij, L_ij = −w_ij, w_ij = (cot α_ij + cot β_ij)/2), so L·1 = 0.
 
 pub mod closest;
+pub mod intrinsic;
 pub mod sparse;
 
 use crate::mesh::TriMesh;
-use nalgebra::Vector3;
+
+use intrinsic::Intrinsic;
 use sparse::Pattern;
 use std::sync::Arc;
 
-/// The operators of one mesh, built once.
+/// A per-face vector in the face's own flat layout (see [`Intrinsic::layout`]).
+pub type FaceVector = [f64; 2];
+
+/// The operators of one triangulation, built once from its edge lengths alone.
 pub struct Operators {
     pub pattern: Arc<Pattern>,
     /// Values of L on `pattern`.
     pub laplacian: Vec<f64>,
     /// Lumped (barycentric) vertex areas, mm².
     pub mass: Vec<f64>,
-    /// Per face: cotangent of the angle at each corner.
+    /// The triangulation's faces (the mesh's own, or intrinsic Delaunay ones).
+    pub faces: Vec<[u32; 3]>,
+    /// Per face: its flat layout, the cotangent at each corner, its area.
+    pub layout: Vec<[[f64; 2]; 3]>,
     pub corner_cot: Vec<[f64; 3]>,
-    /// Per face: unit normal and area.
-    pub face_normal: Vec<Vector3<f64>>,
     pub face_area: Vec<f64>,
     pub mean_edge: f64,
     /// Per vertex, its (face, corner) pairs (CSR), so vertex sums gather in parallel.
@@ -30,33 +36,23 @@ pub struct Operators {
 }
 
 impl Operators {
-    /// Build the operators; `edges` are the mesh's unique edges (lower index first).
-    pub fn new(mesh: &TriMesh, edges: &[[u32; 2]]) -> Operators {
-        let n = mesh.n_vertices();
-        let pattern = Arc::new(Pattern::from_edges(n, edges));
+    /// The operators of a triangulation given by faces and edge lengths.
+    pub fn new(t: &Intrinsic, n_vertices: usize) -> Operators {
+        let n = n_vertices;
+        let edges = t.edges();
+        let pattern = Arc::new(Pattern::from_edges(n, &edges));
         let mut edge_index = std::collections::HashMap::with_capacity(edges.len());
         for (e, &[i, j]) in edges.iter().enumerate() {
             edge_index.insert((i, j), e);
         }
         let mut laplacian = vec![0.0; pattern.nnz()];
         let mut mass = vec![0.0; n];
-        let mut corner_cot = Vec::with_capacity(mesh.n_faces());
-        let mut face_normal = Vec::with_capacity(mesh.n_faces());
-        let mut face_area = Vec::with_capacity(mesh.n_faces());
+        let (mut corner_cot, mut layout, mut face_area) = (Vec::new(), Vec::new(), Vec::new());
         let mut edge_sum = 0.0;
-        for (f, face) in mesh.faces.iter().enumerate() {
-            let p = mesh.corners(f);
-            let n2 = (p[1] - p[0]).cross(&(p[2] - p[0]));
-            let area = 0.5 * n2.norm();
-            face_normal.push(n2 / (2.0 * area));
-            face_area.push(area);
-            let mut cots = [0.0; 3];
-            for k in 0..3 {
-                let (a, b) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
-                cots[k] = a.dot(&b) / a.cross(&b).norm();
-                edge_sum += a.norm();
-            }
-            corner_cot.push(cots);
+        for (f, face) in t.faces.iter().enumerate() {
+            let area = t.area(f);
+            let cots: [f64; 3] = std::array::from_fn(|k| t.cot(f, k));
+            edge_sum += t.lengths[f].iter().sum::<f64>();
             for k in 0..3 {
                 // Edge opposite corner k joins the other two corners.
                 let (i, j) = (face[(k + 1) % 3], face[(k + 2) % 3]);
@@ -69,10 +65,13 @@ impl Operators {
                 laplacian[pattern.diag_slot(j as usize)] += w;
                 mass[face[k] as usize] += area / 3.0;
             }
+            corner_cot.push(cots);
+            layout.push(t.layout(f));
+            face_area.push(area);
         }
-        let mean_edge = edge_sum / (3 * mesh.n_faces()).max(1) as f64;
+        let mean_edge = edge_sum / (3 * t.faces.len()).max(1) as f64;
         let mut corner_start = vec![0u32; n + 1];
-        for face in &mesh.faces {
+        for face in &t.faces {
             for &v in face {
                 corner_start[v as usize + 1] += 1;
             }
@@ -82,7 +81,7 @@ impl Operators {
         }
         let mut fill = corner_start.clone();
         let mut corners = vec![(0u32, 0u8); corner_start[n] as usize];
-        for (f, face) in mesh.faces.iter().enumerate() {
+        for (f, face) in t.faces.iter().enumerate() {
             for (k, &v) in face.iter().enumerate() {
                 corners[fill[v as usize] as usize] = (f as u32, k as u8);
                 fill[v as usize] += 1;
@@ -92,13 +91,19 @@ impl Operators {
             pattern,
             laplacian,
             mass,
+            faces: t.faces.clone(),
+            layout,
             corner_cot,
-            face_normal,
             face_area,
             mean_edge,
             corner_start,
             corners,
         }
+    }
+
+    /// The operators of a mesh as it is.
+    pub fn of_mesh(mesh: &TriMesh) -> Operators {
+        Operators::new(&Intrinsic::from_mesh(mesh), mesh.n_vertices())
     }
 
     /// Values of M + t·L on the pattern.
@@ -110,26 +115,28 @@ impl Operators {
         v
     }
 
-    /// Gradient of a piecewise-linear function on face `f`: (1/2A) Σ_k u_k (N × e_k), with e_k
-    /// the edge opposite corner k in counter-clockwise order.
-    pub fn face_gradient(&self, mesh: &TriMesh, f: usize, u: &[f64]) -> Vector3<f64> {
-        let p = mesh.corners(f);
-        let nrm = self.face_normal[f];
-        let face = mesh.faces[f];
-        let mut g = Vector3::zeros();
+    /// Gradient of a piecewise-linear function on face `f`, in its layout: (1/2A) Σ_k u_k ⊥e_k,
+    /// with e_k the edge opposite corner k in counter-clockwise order and ⊥ a quarter turn.
+    pub fn face_gradient(&self, f: usize, u: &[f64]) -> FaceVector {
+        let p = &self.layout[f];
+        let face = self.faces[f];
+        let mut g = [0.0; 2];
         for k in 0..3 {
-            let e = p[(k + 2) % 3] - p[(k + 1) % 3];
-            g += u[face[k] as usize] * nrm.cross(&e);
+            let (a, b) = (p[(k + 1) % 3], p[(k + 2) % 3]);
+            let e = [b[0] - a[0], b[1] - a[1]];
+            g[0] += u[face[k] as usize] * -e[1];
+            g[1] += u[face[k] as usize] * e[0];
         }
-        g / (2.0 * self.face_area[f])
+        let s = 1.0 / (2.0 * self.face_area[f]);
+        [g[0] * s, g[1] * s]
     }
 
-    /// Integrated divergence of a per-face vector field at every vertex (Crane et al. Eq. (4)):
+    /// Integrated divergence of a per-face field at every vertex (Crane et al. Eq. (4)):
     /// ∇·X at i = ½ Σ_faces [cot θ₁ (e₁·X) + cot θ₂ (e₂·X)], e₁, e₂ the edges leaving i and θ
     /// the angles opposite them.
-    pub fn divergence(&self, mesh: &TriMesh, field: &[Vector3<f64>]) -> Vec<f64> {
+    pub fn divergence(&self, field: &[FaceVector]) -> Vec<f64> {
         use rayon::prelude::*;
-        (0..mesh.n_vertices())
+        (0..self.corner_start.len() - 1)
             .into_par_iter()
             .map(|v| {
                 let corners =
@@ -138,12 +145,13 @@ impl Operators {
                     .iter()
                     .map(|&(f, k)| {
                         let (f, k) = (f as usize, k as usize);
-                        let p = mesh.corners(f);
+                        let p = &self.layout[f];
                         let cot = self.corner_cot[f];
+                        let x = field[f];
                         let (j, l) = ((k + 1) % 3, (k + 2) % 3);
+                        let dot = |q: [f64; 2]| (q[0] - p[k][0]) * x[0] + (q[1] - p[k][1]) * x[1];
                         // k→j is opposite corner l; k→l is opposite corner j.
-                        0.5 * (cot[l] * (p[j] - p[k]).dot(&field[f])
-                            + cot[j] * (p[l] - p[k]).dot(&field[f]))
+                        0.5 * (cot[l] * dot(p[j]) + cot[j] * dot(p[l]))
                     })
                     .sum()
             })

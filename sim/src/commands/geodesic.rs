@@ -37,13 +37,8 @@ pub fn geodesic(mesh: &Path, from: &str, out: &Path) -> Result<usize> {
     let part = part_from_mesh(read_mesh_file(mesh)?, LowerLoop::LowestZ, &name)?;
     let sources = parse_sources(from, &part)?;
     let t = &part.topology;
-    let solver = HeatSolver::new(
-        &part.mesh,
-        &t.edges,
-        &t.is_boundary_vertex,
-        HeatOptions::default(),
-    )
-    .map_err(|e| Error::failure(format!("{name}: {e}")))?;
+    let solver = HeatSolver::new(&part.mesh, &t.is_boundary_vertex, HeatOptions::default())
+        .map_err(|e| Error::failure(format!("{name}: {e}")))?;
     let d = solver.distance_from_vertices(&sources);
     let mut csv = String::from("x,y,z,distance_mm\n");
     for (p, di) in part.mesh.positions.iter().zip(&d) {
