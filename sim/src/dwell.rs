@@ -116,8 +116,6 @@ fn point_dwells(
     b: usize,
     simulated: &mut f64,
 ) -> (WallRun, Vec<(usize, f64, Risk)>, Vec<usize>) {
-    let ambient = s.thermal.ambient_k;
-    let target = s.dwell.interpass_max_k - s.dwell.margin_k;
     let mut x = start.clone();
     let mut dwells = Vec::new();
     let mut unresolved = Vec::new();
@@ -145,30 +143,13 @@ fn point_dwells(
             x = trial;
             continue;
         };
-        let mut tries = vec![(0.0, hot0)];
-        let (mut fail, mut pass): (f64, Option<(f64, WallRun)>) = (0.0, None);
-        let mut d: f64 = 5.0;
-        for _ in 0..MAX_TRIES {
-            d = d.clamp(0.0, s.dwell.max_dwell_s);
+        let pass = shortest_dwell(s, 5.0, hot0, |d| {
             let mut t = x.clone();
             t.deposit(deps, i, d);
             *simulated += 1.0;
             let (r, hot) = risk_at(&t, i);
-            tries.push((d, hot));
-            if r.is_none() {
-                let close = d - fail <= (0.1 * d).max(0.5);
-                pass = Some((d, t));
-                if close {
-                    break;
-                }
-            } else {
-                fail = fail.max(d);
-                if d >= s.dwell.max_dwell_s {
-                    break;
-                }
-            }
-            d = next_dwell(&tries, fail, pass.as_ref().map(|p| p.0), ambient, target);
-        }
+            (t, r.is_none(), hot)
+        });
         match pass {
             Some((d, t)) => {
                 dwells.push((i, d, why));
@@ -323,35 +304,50 @@ impl Segment<'_> {
         guess: f64,
         simulated: &mut usize,
     ) -> Option<(f64, WallRun)> {
-        let s = self.s;
-        let (ambient, target) = (
-            s.thermal.ambient_k,
-            s.dwell.interpass_max_k - s.dwell.margin_k,
-        );
         let (_, _, hot0) = self.try_dwell(start, 0.0, simulated);
-        let mut tries = vec![(0.0, hot0)];
-        let mut d = if guess > 0.0 { guess } else { 10.0 };
-        let (mut fail, mut best): (f64, Option<(f64, WallRun)>) = (0.0, None);
-        for _ in 0..MAX_TRIES {
-            d = d.clamp(0.0, s.dwell.max_dwell_s);
+        shortest_dwell(self.s, if guess > 0.0 { guess } else { 10.0 }, hot0, |d| {
             let (x, risk, hot) = self.try_dwell(start, d, simulated);
-            tries.push((d, hot));
-            if risk.is_none() {
-                let close = d - fail <= (0.1 * d).max(0.5);
-                best = Some((d, x));
-                if close {
-                    break;
-                }
-            } else {
-                fail = fail.max(d);
-                if d >= s.dwell.max_dwell_s {
-                    break;
-                }
-            }
-            d = next_dwell(&tries, fail, best.as_ref().map(|b| b.0), ambient, target);
-        }
-        best
+            (x, risk.is_none(), hot)
+        })
     }
+}
+
+/// The shortest dwell that `attempt` (the run after a dwell, whether it is safe, its hottest
+/// preheat) finds safe, starting from `guess`: cooling of the excess above ambient is close to
+/// exponential, so two tries give its time constant and the dwell that reaches the target; then
+/// the bracket closes to 10 %. `None` if even the longest dwell fails.
+fn shortest_dwell(
+    s: &Scenario,
+    guess: f64,
+    hot0: f64,
+    mut attempt: impl FnMut(f64) -> (WallRun, bool, f64),
+) -> Option<(f64, WallRun)> {
+    let (ambient, target) = (
+        s.thermal.ambient_k,
+        s.dwell.interpass_max_k - s.dwell.margin_k,
+    );
+    let mut tries = vec![(0.0, hot0)];
+    let mut d = guess;
+    let (mut fail, mut best): (f64, Option<(f64, WallRun)>) = (0.0, None);
+    for _ in 0..MAX_TRIES {
+        d = d.clamp(0.0, s.dwell.max_dwell_s);
+        let (x, safe, hot) = attempt(d);
+        tries.push((d, hot));
+        if safe {
+            let close = d - fail <= (0.1 * d).max(0.5);
+            best = Some((d, x));
+            if close {
+                break;
+            }
+        } else {
+            fail = fail.max(d);
+            if d >= s.dwell.max_dwell_s {
+                break;
+            }
+        }
+        d = next_dwell(&tries, fail, best.as_ref().map(|b| b.0), ambient, target);
+    }
+    best
 }
 
 /// The next dwell to try: from the exponential fit of the last two tries (T − T_a ∝ e^{−d/τ}),

@@ -1,6 +1,6 @@
 //! The command's common machinery: help, the demo and its manifest, the mesh writer.
 
-use crate::{root, scratch, waamtwin};
+use crate::{read_csv, root, scratch, waamtwin};
 
 #[test]
 fn every_subcommand_has_help() {
@@ -135,18 +135,6 @@ fn geodesic_command_writes_distance_per_vertex() {
         ]),
         &["vertex:7,x", "'x' is not a vertex index"],
     );
-}
-
-fn read_csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().split(',').map(String::from).collect();
-    (
-        header,
-        lines
-            .map(|l| l.split(',').map(String::from).collect())
-            .collect(),
-    )
 }
 
 #[test]

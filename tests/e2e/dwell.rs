@@ -1,18 +1,6 @@
 //! The dwell planner through `waamtwin dwell` on a small closed dome.
 
-use crate::{scratch, waamtwin};
-
-fn csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().split(',').map(String::from).collect();
-    (
-        header,
-        lines
-            .map(|l| l.split(',').map(String::from).collect())
-            .collect(),
-    )
-}
+use crate::{read_csv as csv, scratch, waamtwin};
 
 fn column(h: &[String], rows: &[Vec<String>], name: &str) -> Vec<f64> {
     let k = h

@@ -10,28 +10,12 @@
 use std::time::Instant;
 use thermal::material::Material;
 use thermal::network::Surroundings;
-use thermal::schedule::Deposit;
+use thermal::schedule::helix;
 use thermal::voxel::{VoxelModel, VoxelSettings};
 use thermal::wall::{Plate, WallModel, WallSettings};
 
-fn cylinder(r: f64, n: usize, layers: usize) -> Vec<Deposit> {
-    let (h, v, power) = (2e-3, 10e-3, 0.85 * 2000.0);
-    let dt = 2.0 * std::f64::consts::PI * r / n as f64 / v;
-    (0..n * layers)
-        .map(|i| {
-            let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
-            Deposit {
-                position: [r * th.cos(), r * th.sin(), h * (1.0 + i as f64 / n as f64)],
-                time: (i + 1) as f64 * dt,
-                arc_time: dt,
-                heat: power * dt,
-                width: 6e-3,
-                height: h,
-                axis: [0.0, 0.0, 1.0],
-                support: (i >= n).then(|| i - n),
-            }
-        })
-        .collect()
+fn cylinder(r: f64, n: usize, layers: usize) -> Vec<thermal::schedule::Deposit> {
+    helix(r, n, layers, 2e-3, 6e-3, 10e-3, 0.85 * 2000.0)
 }
 
 fn surroundings() -> Surroundings {

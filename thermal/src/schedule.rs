@@ -53,3 +53,38 @@ pub fn validate(deposits: &[Deposit]) -> Result<(), String> {
     }
     Ok(())
 }
+
+/// A helical wall on the plate: `per_revolution` deposits a revolution of radius `r`, each
+/// revolution `height` higher, bead `width`, travel `speed`, heat entering at `heat_rate` (η·P,
+/// W). The simplest schedule, for verification and benchmarks.
+pub fn helix(
+    r: f64,
+    per_revolution: usize,
+    revolutions: usize,
+    height: f64,
+    width: f64,
+    speed: f64,
+    heat_rate: f64,
+) -> Vec<Deposit> {
+    let n = per_revolution;
+    let dt = 2.0 * std::f64::consts::PI * r / n as f64 / speed;
+    (0..n * revolutions)
+        .map(|i| {
+            let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+            Deposit {
+                position: [
+                    r * th.cos(),
+                    r * th.sin(),
+                    height * (1.0 + i as f64 / n as f64),
+                ],
+                time: (i + 1) as f64 * dt,
+                arc_time: dt,
+                heat: heat_rate * dt,
+                width,
+                height,
+                axis: [0.0, 0.0, 1.0],
+                support: (i >= n).then(|| i - n),
+            }
+        })
+        .collect()
+}

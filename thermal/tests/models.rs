@@ -2,33 +2,9 @@
 
 use thermal::material::Material;
 use thermal::network::Surroundings;
-use thermal::schedule::Deposit;
+use thermal::schedule::helix;
 use thermal::voxel::{VoxelModel, VoxelSettings};
 use thermal::wall::{Plate, WallModel, WallSettings};
-
-/// A helical wall: `n` points a revolution of radius `r`, `layers` revolutions of height `h`,
-/// travel `v`, heat η·P per second of arc.
-pub fn cylinder(r: f64, n: usize, layers: usize, h: f64, v: f64, power: f64) -> Vec<Deposit> {
-    let seg = 2.0 * std::f64::consts::PI * r / n as f64;
-    let dt = seg / v;
-    (0..n * layers)
-        .map(|i| {
-            let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
-            let z = h * (1.0 + i as f64 / n as f64);
-            Deposit {
-                position: [r * th.cos(), r * th.sin(), z],
-                time: (i + 1) as f64 * dt,
-                arc_time: dt,
-                heat: power * dt,
-                // 6 mm: three 2 mm voxels, so both models lay the same metal.
-                width: 6e-3,
-                height: h,
-                axis: [0.0, 0.0, 1.0],
-                support: (i >= n).then(|| i - n),
-            }
-        })
-        .collect()
-}
 
 fn surroundings() -> Surroundings {
     Surroundings {
@@ -58,7 +34,8 @@ fn per_revolution(pre: &[f64], n: usize) -> Vec<f64> {
 #[test]
 fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     let (n, layers) = (120, 10);
-    let deps = cylinder(0.06, n, layers, 2e-3, 10e-3, 0.85 * 2000.0);
+    // 6 mm bead: three 2 mm voxels, so both models lay the same metal.
+    let deps = helix(0.06, n, layers, 2e-3, 6e-3, 10e-3, 0.85 * 2000.0);
     let material = Material::g3si();
     let ws = WallSettings {
         material: material.clone(),

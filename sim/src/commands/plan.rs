@@ -78,7 +78,7 @@ pub fn write_plan(dir: &mut RunDir, s: &Scenario, pl: &Plan) -> Result<()> {
     json["bead"] = bead_json(s, pl, &b);
     dir.write_json("plan.json", &json)?;
     dir.write("generators.csv", generators_csv(pl).as_bytes())?;
-    dir.write("path.csv", path_csv(pl, &b).as_bytes())?;
+    dir.write("path.csv", path_csv(s, pl, &b).as_bytes())?;
     Ok(())
 }
 
@@ -184,34 +184,46 @@ fn generators_csv(pl: &Plan) -> String {
     csv
 }
 
-/// One row per path point: wire feed and travel speed from Eq.7 under the scenario's modulation.
-/// Deposit and wire feed are written at full (round-trip) precision so that Eq.7 can be checked
-/// from the file.
-fn path_csv(pl: &Plan, b: &Beads) -> String {
-    let mut csv = String::from(
-        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s\n",
+/// The columns of path.csv every command writes (`../shared/interface.md`).
+pub const PATH_COLUMNS: &str =
+    "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s";
+
+/// One path.csv row's contract columns (no line end): wire feed and travel speed from Eq.7 under
+/// the scenario's modulation, time from the deposition schedule. Deposit and wire feed at full
+/// (round-trip) precision, so that Eq.7 can be checked from the file.
+pub fn path_row(
+    csv: &mut String,
+    i: usize,
+    q: &planner::plan::PathPoint,
+    bead: &crate::beads::Bead,
+    t_s: f64,
+    dwell_s: f64,
+) {
+    let _ = write!(
+        csv,
+        "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{},{:.3},{:.3}",
+        q.position.x,
+        q.position.y,
+        q.position.z,
+        q.tool.x,
+        q.tool.y,
+        q.tool.z,
+        q.layer,
+        q.generator,
+        q.deposit_mm,
+        bead.wfs_m_s * 60.0,
+        bead.travel_m_s * 1e3,
+        t_s,
+        dwell_s
     );
-    let mut t = 0.0;
+}
+
+fn path_csv(s: &Scenario, pl: &Plan, b: &Beads) -> String {
+    let deposits = crate::deposition::schedule(s, pl, b, &[]);
+    let mut csv = format!("{PATH_COLUMNS}\n");
     for (i, (q, bead)) in pl.points.iter().zip(&b.beads).enumerate() {
-        if i > 0 {
-            t += (q.position - pl.points[i - 1].position).norm() * 1e-3 / bead.travel_m_s;
-        }
-        let _ = writeln!(
-            csv,
-            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{},{:.3},0",
-            q.position.x,
-            q.position.y,
-            q.position.z,
-            q.tool.x,
-            q.tool.y,
-            q.tool.z,
-            q.layer,
-            q.generator,
-            q.deposit_mm,
-            bead.wfs_m_s * 60.0,
-            bead.travel_m_s * 1e3,
-            t
-        );
+        path_row(&mut csv, i, q, bead, deposits[i].time, 0.0);
+        csv.push('\n');
     }
     csv
 }

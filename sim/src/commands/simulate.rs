@@ -273,28 +273,24 @@ pub fn write_thermal(
         );
     }
     dir.write("layers.csv", csv.as_bytes())?;
-    let mut path = String::from(
-        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s,built_height_mm,built_width_mm,stickout_mm\n",
+    let mut path = format!(
+        "{},preheat_c,peak_c,pool_length_mm,time_above_s,built_height_mm,built_width_mm,stickout_mm\n",
+        super::plan::PATH_COLUMNS
     );
     let b = beads(s, pl);
     for (i, q) in pl.points.iter().enumerate() {
-        let (bead, d, p) = (&b.beads[i], &sim.deposits[i], &r.points[i]);
-        let _ = writeln!(
-            path,
-            "{i},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{},{},{},{},{},{:.3},{:.3},{:.2},{:.2},{:.3},{:.3},{:.5},{:.5},{:.4}",
-            q.position.x,
-            q.position.y,
-            q.position.z,
-            q.tool.x,
-            q.tool.y,
-            q.tool.z,
-            q.layer,
-            q.generator,
-            q.deposit_mm,
-            bead.wfs_m_s * 60.0,
-            bead.travel_m_s * 1e3,
+        let (d, p) = (&sim.deposits[i], &r.points[i]);
+        super::plan::path_row(
+            &mut path,
+            i,
+            q,
+            &b.beads[i],
             d.time,
             dwell_s.get(i).copied().unwrap_or(0.0),
+        );
+        let _ = writeln!(
+            path,
+            ",{:.2},{:.2},{:.3},{:.3},{:.5},{:.5},{:.4}",
             p.preheat - C,
             p.peak - C,
             p.pool_length * 1e3,
