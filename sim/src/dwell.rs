@@ -22,6 +22,13 @@ use thermal::wall::{Support, WallModel, WallRun, WallSettings, read_points};
 /// Tries of one revolution's dwell search before it gives up at the longest dwell.
 const MAX_TRIES: usize = 8;
 
+/// The point search copies its run every this many deposits.
+const CHECKPOINT_EVERY: usize = 16;
+
+/// A deposit whose judged points lie on metal this far below the limit is laid without a copy
+/// (the arc warms the metal ahead of it by less than this over one deposit).
+const PREDICT_MARGIN_K: f64 = 50.0;
+
 /// A revolution and where its dwell goes.
 #[derive(Debug, Clone, Copy)]
 struct Revolution {
@@ -133,8 +140,38 @@ fn point_dwells(
         }
         (first, hottest)
     };
+    // Most deposits are safe and need no copy of the run: one laid on metal well below the
+    // limit is laid in place; the run is copied every CHECKPOINT_EVERY deposits, and a
+    // misprediction replays from the last copy.
+    let target = s.dwell.interpass_max_k - s.dwell.margin_k;
+    let (mut cp, mut cp_at) = (start.clone(), a);
+    let replay = |cp: &WallRun, from: usize, to: usize, dwells: &[(usize, f64, Risk)]| {
+        let mut y = cp.clone();
+        for j in from..to {
+            let d = dwells.iter().find(|p| p.0 == j).map_or(0.0, |p| p.1);
+            y.deposit(deps, j, d);
+        }
+        y
+    };
     #[allow(clippy::needless_range_loop)] // i indexes deposits, judged lists and trials alike
     for i in a..b {
+        if i - cp_at >= CHECKPOINT_EVERY {
+            cp = x.clone();
+            cp_at = i;
+        }
+        let cool = judged[i].iter().all(|&k| {
+            x.support(k) != Support::Deposit
+                || x.temperatures()[x.below(k)] < target - PREDICT_MARGIN_K
+        });
+        if cool {
+            x.deposit(deps, i, 0.0);
+            *simulated += 1.0;
+            if risk_at(&x, i).0.is_none() {
+                continue;
+            }
+            x = replay(&cp, cp_at, i, &dwells);
+            *simulated += (i - cp_at) as f64;
+        }
         let mut trial = x.clone();
         trial.deposit(deps, i, 0.0);
         *simulated += 1.0;

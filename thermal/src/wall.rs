@@ -508,21 +508,21 @@ impl WallRun {
         self.laid = i + 1;
     }
 
-    /// Let the part cool (no source) for `duration`, in steps growing from half a second to
-    /// the settings' longest step.
+    /// Let the part cool (no source) for `duration`, in steps doubling from one second to the
+    /// settings' longest step (backward Euler is stable at any step; cooling slows as it goes).
     pub fn cool(&mut self, duration: f64) {
         if duration <= 1e-9 {
             return;
         }
         self.power.iter_mut().for_each(|p| *p = 0.0);
         let end = self.now + duration;
-        let mut dt = 0.5f64.min(duration);
+        let mut dt = 1.0f64.min(duration);
         while self.now < end - 1e-9 {
             let step = dt.min(end - self.now);
             self.model.network.step(step, &self.power);
             self.now += step;
             self.observe(step);
-            dt = (dt * 1.5).min(self.settings.max_step);
+            dt = (dt * 2.0).min(self.settings.max_step);
         }
     }
 
