@@ -1,25 +1,17 @@
 //! The bead model through `waamtwin plan`: Eq.7 in path.csv under both modulations, and the process
 //! window check.
 
-use crate::{scratch, waamtwin};
+use crate::run_scenario;
 
 fn plan_with(name: &str, extra: &str) -> (serde_json::Value, Vec<Vec<f64>>) {
-    let dir = scratch(name);
-    let scenario = format!(
-        "[part]\nshape = \"vase\"\nradius_mm = 80.0\nheight_mm = 165.0\ntop_slope_mm = 13.0\nedge_mm = 3.0\n[process]\n{extra}\n"
-    );
-    std::fs::write(dir.join("s.toml"), scenario).unwrap();
-    let out = waamtwin(&[
+    let out = run_scenario(
+        name,
         "plan",
-        dir.join("s.toml").to_str().unwrap(),
-        "-o",
-        dir.join("out").to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        &format!(
+            "[part]\nshape = \"vase\"\nradius_mm = 80.0\nheight_mm = 165.0\ntop_slope_mm = 13.0\nedge_mm = 3.0\n[process]\n{extra}\n"
+        ),
     );
+    let dir = out.parent().unwrap().to_path_buf();
     let plan: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("out/plan.json")).unwrap()).unwrap();
     let text = std::fs::read_to_string(dir.join("out/path.csv")).unwrap();

@@ -223,16 +223,7 @@ fn plan_writes_the_contract_files() {
 #[test]
 fn plan_of_a_branching_part_is_an_input_error() {
     let dir = scratch("plan_branch");
-    let mut m = planner::shapes::Shape::Disk { radius_mm: 60.0 }.mesh(2.0);
-    m.map_positions(|p| {
-        let bump = |cx: f64| (-((p.x - cx).powi(2) + p.y * p.y) / 300.0).exp();
-        let rim = 1.0 - (p.x * p.x + p.y * p.y) / 3600.0;
-        planner::nalgebra::Point3::new(
-            p.x,
-            p.y,
-            60.0 * (bump(-25.0) + bump(25.0)) * rim + 20.0 * rim,
-        )
-    });
+    let m = crate::two_humps();
     std::fs::write(
         dir.join("humps.stl"),
         planner::io::write_stl(&m, planner::io::Encoding::Binary),

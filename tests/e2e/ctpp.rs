@@ -121,18 +121,7 @@ fn closed_hemisphere() {
 
 #[test]
 fn multi_branch_surface_is_a_clear_error() {
-    // A closed cap with two humps: level sets split into two loops near the top.
-    let mut m = Shape::Disk { radius_mm: 60.0 }.mesh(2.0);
-    m.map_positions(|p| {
-        let bump = |cx: f64| (-((p.x - cx).powi(2) + p.y * p.y) / 300.0).exp();
-        let rim = 1.0 - (p.x * p.x + p.y * p.y) / 3600.0;
-        planner::nalgebra::Point3::new(
-            p.x,
-            p.y,
-            60.0 * (bump(-25.0) + bump(25.0)) * rim + 20.0 * rim,
-        )
-    });
-    let p = Part::from_mesh(m, LowerLoop::LowestZ).unwrap();
+    let p = Part::from_mesh(crate::two_humps(), LowerLoop::LowestZ).unwrap();
     let e = plan(&p, &params(60)).unwrap_err();
     let msg = e.to_string();
     eprintln!("two humps: {msg}");

@@ -67,3 +67,38 @@ pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
             .collect(),
     )
 }
+
+/// Write `scenario` as `s.toml` in a fresh folder, run `waamtwin COMMAND s.toml -o out`, insist
+/// that it succeeds, and return the output folder.
+pub fn run_scenario(name: &str, command: &str, scenario: &str) -> PathBuf {
+    let dir = scratch(name);
+    std::fs::write(dir.join("s.toml"), scenario).unwrap();
+    let out = waamtwin(&[
+        command,
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    dir.join("out")
+}
+
+/// A closed cap with two humps: its level sets split into two loops near the top (a
+/// multi-branch part).
+pub fn two_humps() -> planner::mesh::TriMesh {
+    let mut m = planner::shapes::Shape::Disk { radius_mm: 60.0 }.mesh(2.0);
+    m.map_positions(|p| {
+        let bump = |cx: f64| (-((p.x - cx).powi(2) + p.y * p.y) / 300.0).exp();
+        let rim = 1.0 - (p.x * p.x + p.y * p.y) / 3600.0;
+        planner::nalgebra::Point3::new(
+            p.x,
+            p.y,
+            60.0 * (bump(-25.0) + bump(25.0)) * rim + 20.0 * rim,
+        )
+    });
+    m
+}

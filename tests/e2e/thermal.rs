@@ -1,24 +1,13 @@
 //! The thermal engine through `waamtwin simulate`.
 
-use crate::{scratch, waamtwin};
+use crate::run_scenario;
 
 fn simulate(
     name: &str,
     scenario: &str,
 ) -> (serde_json::Value, Vec<Vec<String>>, std::path::PathBuf) {
-    let dir = scratch(name);
-    std::fs::write(dir.join("s.toml"), scenario).unwrap();
-    let out = waamtwin(&[
-        "simulate",
-        dir.join("s.toml").to_str().unwrap(),
-        "-o",
-        dir.join("out").to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = run_scenario(name, "simulate", scenario);
+    let dir = out.parent().unwrap().to_path_buf();
     let t: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("out/thermal.json")).unwrap()).unwrap();
     let layers = std::fs::read_to_string(dir.join("out/layers.csv")).unwrap();

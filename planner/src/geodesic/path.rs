@@ -44,24 +44,8 @@ enum State {
 
 impl<'a> Tracer<'a> {
     pub fn new(mesh: &'a TriMesh, topology: &'a Topology) -> Tracer<'a> {
-        let n = mesh.n_vertices();
-        let mut count = vec![0u32; n + 1];
-        for f in &mesh.faces {
-            for &v in f {
-                count[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            count[i + 1] += count[i];
-        }
-        let mut fill = count.clone();
-        let mut vf = vec![0u32; count[n] as usize];
-        for (fi, f) in mesh.faces.iter().enumerate() {
-            for &v in f {
-                vf[fill[v as usize] as usize] = fi as u32;
-                fill[v as usize] += 1;
-            }
-        }
+        let (count, corners) = crate::geometry::vertex_corners(&mesh.faces, mesh.n_vertices());
+        let vf = corners.iter().map(|c| c.0).collect();
         let bary_grad = (0..mesh.n_faces())
             .map(|f| {
                 let p = mesh.corners(f);

@@ -70,23 +70,7 @@ impl Operators {
             face_area.push(area);
         }
         let mean_edge = edge_sum / (3 * t.faces.len()).max(1) as f64;
-        let mut corner_start = vec![0u32; n + 1];
-        for face in &t.faces {
-            for &v in face {
-                corner_start[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            corner_start[i + 1] += corner_start[i];
-        }
-        let mut fill = corner_start.clone();
-        let mut corners = vec![(0u32, 0u8); corner_start[n] as usize];
-        for (f, face) in t.faces.iter().enumerate() {
-            for (k, &v) in face.iter().enumerate() {
-                corners[fill[v as usize] as usize] = (f as u32, k as u8);
-                fill[v as usize] += 1;
-            }
-        }
+        let (corner_start, corners) = vertex_corners(&t.faces, n);
         Operators {
             pattern,
             laplacian,
@@ -157,6 +141,29 @@ impl Operators {
             })
             .collect()
     }
+}
+
+/// Per vertex, the (face, corner) pairs where it sits, as a CSR: `start[v]..start[v + 1]` indexes
+/// `corners`.
+pub fn vertex_corners(faces: &[[u32; 3]], n: usize) -> (Vec<u32>, Vec<(u32, u8)>) {
+    let mut start = vec![0u32; n + 1];
+    for face in faces {
+        for &v in face {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut corners = vec![(0u32, 0u8); start[n] as usize];
+    for (f, face) in faces.iter().enumerate() {
+        for (k, &v) in face.iter().enumerate() {
+            corners[fill[v as usize] as usize] = (f as u32, k as u8);
+            fill[v as usize] += 1;
+        }
+    }
+    (start, corners)
 }
 
 /// Gaussian elimination with partial pivoting on a small dense system (row-major m × m); `None`
