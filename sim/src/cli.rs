@@ -56,6 +56,18 @@ pub enum Command {
         #[arg(long)]
         no_baselines: bool,
     },
+    /// What-if study: overrides of a base scenario, run two at a time, resumable; summary.csv.
+    Study {
+        study: PathBuf,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+        /// Run only every N-th case from I (a cluster job array's task): `I/N`.
+        #[arg(long)]
+        shard: Option<String>,
+        /// Write a job-array script for a scheduler instead of running (`slurm`).
+        #[arg(long)]
+        emit: Option<String>,
+    },
     /// Write a scenario's part (a library shape or a mesh file) as a welded STL, OBJ or PLY mesh.
     Mesh {
         scenario: PathBuf,

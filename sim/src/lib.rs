@@ -57,6 +57,22 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             println!("{}", commands::dwell::run(&scenario, &out, !no_baselines)?);
             Ok(())
         }
+        Command::Study {
+            study,
+            out,
+            shard,
+            emit,
+        } => {
+            let shard = shard
+                .as_deref()
+                .map(commands::study::parse_shard)
+                .transpose()?;
+            println!(
+                "{}",
+                commands::study::run(&study, &out, shard, emit.as_deref())?
+            );
+            Ok(())
+        }
         Command::Mesh { scenario, out } => {
             let s = scenario::Scenario::load(&scenario)?;
             let p = part::load_part(&s.part)?;

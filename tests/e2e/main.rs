@@ -6,6 +6,7 @@ mod ctpp;
 mod dwell;
 mod inspect;
 mod scenarios;
+mod study;
 mod thermal;
 
 use std::path::{Path, PathBuf};

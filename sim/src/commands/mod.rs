@@ -6,3 +6,4 @@ pub mod geodesic;
 pub mod inspect;
 pub mod plan;
 pub mod simulate;
+pub mod study;

@@ -1,0 +1,316 @@
+//! `waamtwin study STUDY.toml -o DIR [--shard I/N] [--emit slurm]`: what-if sweeps over a base
+//! scenario. A study file names its base scenario and the overrides, as a sweep (every
+//! combination) and/or a list of cases:
+//!
+//! ```toml
+//! base = "hemisphere.toml"       # relative to the study file
+//! command = "simulate"           # or "dwell" (without its baselines)
+//! [sweep]
+//! "process.travel_speed_mm_s" = [8.0, 10.0, 12.0]
+//! "dwell.interpass_max_c" = [150.0, 200.0]
+//! [[case]]
+//! "thermal.convection_w_m2k" = 30.0
+//! ```
+//!
+//! Each case runs in `DIR/cases/NNN` and is done once its manifest.json exists (written last,
+//! atomically), so a killed study resumes where it stopped and shards of a cluster's job array
+//! can share DIR. `summary.csv` is rebuilt from every finished case after each run.
+
+use crate::error::{Error, Result};
+use crate::output::{RunDir, write_atomic};
+use crate::scenario::Scenario;
+use rayon::prelude::*;
+use serde_json::Value;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// Cases run side by side: one per core of this machine's size.
+const PARALLEL_CASES: usize = 2;
+
+pub struct Case {
+    pub id: String,
+    pub overrides: Vec<(String, toml::Value)>,
+}
+
+pub struct Study {
+    pub base_text: String,
+    pub base_dir: PathBuf,
+    pub command: String,
+    pub cases: Vec<Case>,
+}
+
+pub fn load(path: &Path) -> Result<Study> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| Error::input(format!("{file}: {e}")))?;
+    let table: toml::Table =
+        toml::from_str(&text).map_err(|e| Error::input(format!("{file}: {}", e.message())))?;
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let base = table
+        .get("base")
+        .and_then(|v| v.as_str())
+        .ok_or_else(|| Error::input(format!("{file}: base = \"scenario.toml\" is missing")))?;
+    let base_path = dir.join(base);
+    let base_text = std::fs::read_to_string(&base_path)
+        .map_err(|e| Error::input(format!("{file}: base = \"{base}\": {e}")))?;
+    let command = table
+        .get("command")
+        .and_then(|v| v.as_str())
+        .unwrap_or("simulate")
+        .to_string();
+    if command != "simulate" && command != "dwell" {
+        return Err(Error::input(format!(
+            "{file}: command = \"{command}\"; expected \"simulate\" or \"dwell\""
+        )));
+    }
+    for key in table.keys() {
+        if !["base", "command", "sweep", "case"].contains(&key.as_str()) {
+            return Err(Error::input(format!(
+                "{file}: unknown key {key}; expected base, command, sweep, case"
+            )));
+        }
+    }
+    let mut combos: Vec<Vec<(String, toml::Value)>> = vec![vec![]];
+    if let Some(sweep) = table.get("sweep").and_then(|v| v.as_table()) {
+        for (key, values) in sweep {
+            let values = values.as_array().ok_or_else(|| {
+                Error::input(format!("{file}: sweep.\"{key}\" must be a list of values"))
+            })?;
+            combos = combos
+                .iter()
+                .flat_map(|c| {
+                    values
+                        .iter()
+                        .map(move |v| [c.clone(), vec![(key.clone(), v.clone())]].concat())
+                })
+                .collect();
+        }
+    }
+    if table.get("sweep").is_none() {
+        combos.clear();
+    }
+    if let Some(list) = table.get("case").and_then(|v| v.as_array()) {
+        for c in list {
+            let t = c.as_table().ok_or_else(|| {
+                Error::input(format!("{file}: [[case]] must be tables of overrides"))
+            })?;
+            combos.push(t.iter().map(|(k, v)| (k.clone(), v.clone())).collect());
+        }
+    }
+    if combos.is_empty() {
+        return Err(Error::input(format!(
+            "{file}: no cases; expected a [sweep] or [[case]] entries"
+        )));
+    }
+    let cases = combos
+        .into_iter()
+        .enumerate()
+        .map(|(i, overrides)| Case {
+            id: format!("{i:03}"),
+            overrides,
+        })
+        .collect();
+    let study = Study {
+        base_text,
+        base_dir: dir,
+        command,
+        cases,
+    };
+    // Every case must be a valid scenario before anything runs.
+    for c in &study.cases {
+        study
+            .scenario(c)
+            .map_err(|e| e.context(format!("{file} case {}", c.id)))?;
+    }
+    Ok(study)
+}
+
+impl Study {
+    /// The base scenario with a case's overrides ("section.key" = value).
+    pub fn scenario(&self, c: &Case) -> Result<Scenario> {
+        let mut t: toml::Table =
+            toml::from_str(&self.base_text).map_err(|e| Error::input(e.message().to_string()))?;
+        for (key, value) in &c.overrides {
+            let (section, name) = key.split_once('.').ok_or_else(|| {
+                Error::input(format!("override \"{key}\"; expected \"section.key\""))
+            })?;
+            let entry = t
+                .entry(section.to_string())
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            let table = entry.as_table_mut().ok_or_else(|| {
+                Error::input(format!("override \"{key}\": {section} is not a section"))
+            })?;
+            table.insert(name.to_string(), value.clone());
+        }
+        let text = toml::to_string(&t).map_err(|e| Error::failure(e.to_string()))?;
+        Scenario::parse(&text, &format!("case {}", c.id), &self.base_dir)
+    }
+}
+
+/// Parse `I/N`.
+pub fn parse_shard(s: &str) -> Result<(usize, usize)> {
+    let bad = || Error::input(format!("--shard {s}; expected I/N with 0 ≤ I < N"));
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (i.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?);
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+pub fn run(
+    path: &Path,
+    out: &Path,
+    shard: Option<(usize, usize)>,
+    emit: Option<&str>,
+) -> Result<String> {
+    let study = load(path)?;
+    std::fs::create_dir_all(out.join("cases"))
+        .map_err(|e| Error::input(format!("{}: {e}", out.display())))?;
+    if let Some(kind) = emit {
+        if kind != "slurm" {
+            return Err(Error::input(format!("--emit {kind}; expected slurm")));
+        }
+        return emit_slurm(path, out, study.cases.len());
+    }
+    let (i, n) = shard.unwrap_or((0, 1));
+    let mine: Vec<&Case> = study
+        .cases
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % n == i)
+        .map(|(_, c)| c)
+        .collect();
+    let done = |c: &Case| {
+        out.join("cases")
+            .join(&c.id)
+            .join("manifest.json")
+            .is_file()
+    };
+    let pending: Vec<&&Case> = mine.iter().filter(|c| !done(c)).collect();
+    let skipped = mine.len() - pending.len();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(PARALLEL_CASES)
+        .build()
+        .map_err(|e| Error::failure(e.to_string()))?;
+    let results: Vec<Result<()>> = pool.install(|| {
+        pending
+            .par_iter()
+            .map(|c| run_case(&study, c, &out.join("cases").join(&c.id)))
+            .collect()
+    });
+    for r in results {
+        r?;
+    }
+    let rows = write_summary(&study, out)?;
+    Ok(format!(
+        "{} cases run, {skipped} already done; summary.csv has {rows} of {} cases",
+        pending.len(),
+        study.cases.len()
+    ))
+}
+
+fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
+    let s = study.scenario(c)?;
+    let part = crate::part::load_part(&s.part)?;
+    let mut d = RunDir::create(dir)?;
+    let pl = super::plan::plan_part(&s, &part)?;
+    super::plan::write_plan(&mut d, &s, &pl)?;
+    let dwell = if study.command == "dwell" {
+        let b = crate::beads::beads(&s, &pl);
+        let deps = crate::deposition::schedule(&s, &pl, &b, &[]);
+        let settings = crate::deposition::wall_settings(&s, &deps, Vec::new());
+        let plan = crate::dwell::plan_dwells(&s, &pl, &deps, &settings)
+            .map_err(|e| Error::input(format!("thermal: {e}")))?;
+        plan.dwell_s
+    } else {
+        vec![0.0; pl.points.len()]
+    };
+    let sim = super::simulate::simulate(&s, &pl, &dwell)?;
+    super::simulate::write_thermal(&mut d, &s, &pl, &sim, &dwell)?;
+    let overrides: serde_json::Map<String, Value> = c
+        .overrides
+        .iter()
+        .map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or(Value::Null)))
+        .collect();
+    d.write_json("case.json", &serde_json::json!({"id": c.id, "overrides": overrides, "total_dwell_s": dwell.iter().sum::<f64>(), "dwell_count": dwell.iter().filter(|&&x| x > 0.0).count()}))?;
+    d.finish("study case", s.to_json())?;
+    Ok(())
+}
+
+/// summary.csv from every finished case: one row each.
+fn write_summary(study: &Study, out: &Path) -> Result<usize> {
+    let keys: Vec<String> = {
+        let mut k: Vec<String> = study
+            .cases
+            .iter()
+            .flat_map(|c| c.overrides.iter().map(|o| o.0.clone()))
+            .collect();
+        k.sort();
+        k.dedup();
+        k
+    };
+    let mut csv = format!(
+        "case,{},feasible,max_preheat_c,total_dwell_s,dwell_count,build_time_s,first_risk\n",
+        keys.join(",")
+    );
+    let read =
+        |p: PathBuf| -> Option<Value> { serde_json::from_slice(&std::fs::read(p).ok()?).ok() };
+    let mut rows = 0;
+    for c in &study.cases {
+        let dir = out.join("cases").join(&c.id);
+        if !dir.join("manifest.json").is_file() {
+            continue;
+        }
+        let (plan, thermal, case) = (
+            read(dir.join("plan.json")),
+            read(dir.join("thermal.json")),
+            read(dir.join("case.json")),
+        );
+        let (Some(plan), Some(thermal), Some(case)) = (plan, thermal, case) else {
+            continue;
+        };
+        let values: Vec<String> = keys
+            .iter()
+            .map(|k| {
+                c.overrides
+                    .iter()
+                    .find(|o| &o.0 == k)
+                    .map_or(String::new(), |o| o.1.to_string())
+            })
+            .collect();
+        let _ = writeln!(
+            csv,
+            "{},{},{},{:.2},{:.2},{},{:.2},{}",
+            c.id,
+            values.join(","),
+            plan["feasible"],
+            thermal["max_preheat_c"].as_f64().unwrap_or(f64::NAN),
+            case["total_dwell_s"].as_f64().unwrap_or(0.0),
+            case["dwell_count"],
+            thermal["build_time_s"].as_f64().unwrap_or(f64::NAN),
+            thermal["first_overheat"]
+                .as_u64()
+                .map_or(String::new(), |v| v.to_string())
+        );
+        rows += 1;
+    }
+    write_atomic(&out.join("summary.csv"), csv.as_bytes())?;
+    Ok(rows)
+}
+
+/// A Slurm job-array script: one array task per case shard, then the summary.
+fn emit_slurm(study: &Path, out: &Path, cases: usize) -> Result<String> {
+    let script = format!(
+        "#!/bin/bash\n# waamtwin study as a Slurm job array: `sbatch {out}/study.slurm`.\n#SBATCH --job-name=waamtwin-study\n#SBATCH --array=0-{last}\n#SBATCH --cpus-per-task=2\n#SBATCH --output={out}/slurm-%A_%a.out\nset -euo pipefail\nwaamtwin study {study} -o {out} --shard ${{SLURM_ARRAY_TASK_ID}}/{n}\n",
+        out = out.display(),
+        study = study.display(),
+        last = cases.saturating_sub(1),
+        n = cases.max(1)
+    );
+    let path = out.join("study.slurm");
+    write_atomic(&path, script.as_bytes())?;
+    Ok(format!(
+        "{}: {cases} array tasks; each runs one case and rewrites summary.csv",
+        path.display()
+    ))
+}

@@ -1,0 +1,111 @@
+//! `waamtwin study`: a 12-case sweep on two threads, killed half-way and resumed, and split into
+//! shards whose merged summary equals the local run's.
+
+use crate::{root, scratch};
+use std::process::Command;
+
+fn write_study(dir: &std::path::Path) -> std::path::PathBuf {
+    std::fs::write(
+        dir.join("base.toml"),
+        "[part]\nshape = \"cylinder\"\nradius_mm = 25.0\nheight_mm = 14.0\nedge_mm = 2.5\n[planner]\nn_points = 40\n[thermal]\nplate_mm = [100.0, 100.0, 8.0]\n",
+    )
+    .unwrap();
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        "base = \"base.toml\"\ncommand = \"dwell\"\n[sweep]\n\"process.travel_speed_mm_s\" = [8.0, 10.0, 12.0]\n\"dwell.interpass_max_c\" = [150.0, 200.0]\n\"thermal.convection_w_m2k\" = [10.0, 30.0]\n",
+    )
+    .unwrap();
+    study
+}
+
+fn study_cmd(args: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_waamtwin"));
+    c.arg("study").args(args).current_dir(root());
+    c
+}
+
+fn finished(out: &std::path::Path) -> usize {
+    std::fs::read_dir(out.join("cases")).map_or(0, |d| {
+        d.filter_map(|e| e.ok())
+            .filter(|e| e.path().join("manifest.json").is_file())
+            .count()
+    })
+}
+
+#[test]
+fn a_killed_study_resumes_and_shards_merge_into_the_same_summary() {
+    let dir = scratch("study");
+    let study = write_study(&dir);
+    let (s, out) = (study.to_str().unwrap(), dir.join("local"));
+    // Start, kill once a few cases are done, resume.
+    let mut child = study_cmd(&[s, "-o", out.to_str().unwrap()])
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while finished(&out) < 3 && start.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let before = finished(&out);
+    assert!((3..12).contains(&before), "killed after {before} cases");
+    let resumed = study_cmd(&[s, "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&resumed.stdout);
+    assert!(
+        resumed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    assert!(
+        text.contains(&format!("{} already done", before)) || text.contains("already done"),
+        "{text}"
+    );
+    assert_eq!(finished(&out), 12);
+    let local = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    assert_eq!(local.lines().count(), 13, "{local}");
+    // The trade-off: at each travel speed and convection, a higher interpass limit needs less dwell.
+    let rows: Vec<Vec<String>> = local
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    for r in rows.iter().filter(|r| r[1] == "150.0") {
+        let other = rows
+            .iter()
+            .find(|o| o[1] == "200.0" && o[2] == r[2] && o[3] == r[3])
+            .unwrap();
+        assert!(
+            other[6].parse::<f64>().unwrap() < r[6].parse::<f64>().unwrap(),
+            "{r:?} vs {other:?}"
+        );
+    }
+    // Two shards into one folder: the same summary.
+    let sharded = dir.join("sharded");
+    for shard in ["0/2", "1/2"] {
+        assert!(
+            study_cmd(&[s, "-o", sharded.to_str().unwrap(), "--shard", shard])
+                .status()
+                .unwrap()
+                .success()
+        );
+    }
+    assert_eq!(
+        std::fs::read_to_string(sharded.join("summary.csv")).unwrap(),
+        local
+    );
+    // The job-array script for Slurm.
+    assert!(
+        study_cmd(&[s, "-o", sharded.to_str().unwrap(), "--emit", "slurm"])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let script = std::fs::read_to_string(sharded.join("study.slurm")).unwrap();
+    assert!(
+        script.contains("#SBATCH --array=0-11")
+            && script.contains("--shard ${SLURM_ARRAY_TASK_ID}/12")
+    );
+}
