@@ -1,5 +1,6 @@
-//! `waamtwin demo -o DIR`: the built-in closed-part scenario, through as much of the pipeline as
-//! exists.
+//! `waamtwin demo -o DIR`: the built-in closed-part scenario end to end: the part, the CTPP
+//! plan, the heat of the build without dwells, the cooling dwells that keep it standing, and the
+//! heat of the dwelled build.
 
 use crate::error::Result;
 use crate::output::RunDir;
@@ -24,12 +25,11 @@ pub fn demo(out: &Path) -> Result<()> {
         &write_mesh(&part.mesh, MeshFormat::Stl, Encoding::Binary),
     )?;
     dir.write_json("mesh.json", &super::inspect::report("part.stl", &part))?;
-    let plan = super::plan::plan_part(&scenario, &part)?;
-    super::plan::write_plan(&mut dir, &scenario, &plan)?;
-    println!("{}", super::plan::summary(&plan));
-    let sim = super::simulate::simulate(&scenario, &plan, &[])?;
-    super::simulate::write_thermal(&mut dir, &scenario, &plan, &sim, &[])?;
-    println!("{}", super::simulate::summary(&scenario, &sim));
+    // Plan, simulate without dwells, plan the dwells, and simulate the dwelled path.
+    println!(
+        "{}",
+        super::dwell::plan_and_dwell(&scenario, &mut dir, false)?
+    );
     dir.finish("demo", scenario.to_json())?;
     Ok(())
 }

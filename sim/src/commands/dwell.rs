@@ -18,24 +18,32 @@ use std::time::Instant;
 
 pub fn run(scenario: &Path, out: &Path, baselines: bool) -> Result<String> {
     let s = Scenario::load(scenario)?;
-    let part = load_part(&s.part)?;
     let mut dir = RunDir::create(out)?;
-    let pl = super::plan::plan_part(&s, &part)?;
-    let b = beads(&s, &pl);
-    let deps = schedule(&s, &pl, &b, &[]);
-    let settings = wall_settings(&s, &deps, Vec::new());
+    let line = plan_and_dwell(&s, &mut dir, baselines)?;
+    dir.finish("dwell", s.to_json())?;
+    Ok(line)
+}
+
+/// Plan, simulate, plan the dwells and simulate the dwelled path, writing every file of the
+/// dwell command into `dir` (all but the manifest).
+pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result<String> {
+    let part = load_part(&s.part)?;
+    let pl = super::plan::plan_part(s, &part)?;
+    let b = beads(s, &pl);
+    let deps = schedule(s, &pl, &b, &[]);
+    let settings = wall_settings(s, &deps, Vec::new());
     let fail = |e: String| Error::input(format!("thermal: {e}"));
 
-    let before = simulate(&s, &pl, &[])?;
+    let before = simulate(s, &pl, &[])?;
     let clock = Instant::now();
     let plan = {
         let _stage = Stage::start("planning the dwells");
-        plan_dwells(&s, &pl, &deps, &settings).map_err(fail)?
+        plan_dwells(s, &pl, &deps, &settings).map_err(fail)?
     };
     let search_s = clock.elapsed().as_secs_f64();
-    let after = simulate(&s, &pl, &plan.dwell_s)?;
+    let after = simulate(s, &pl, &plan.dwell_s)?;
     let risky_after: Vec<usize> = (0..pl.points.len())
-        .filter(|&i| judge(&s, &after.result.points[i], after.support[i], 0.0).is_some())
+        .filter(|&i| judge(s, &after.result.points[i], after.support[i], 0.0).is_some())
         .collect();
 
     let total = plan.dwell_s.iter().sum::<f64>();
@@ -54,10 +62,10 @@ pub fn run(scenario: &Path, out: &Path, baselines: bool) -> Result<String> {
         "dwell_count": count,
         "cost_s": total + s.dwell.count_weight_s * count as f64,
         "build_time_s": {"before": build(&before), "after": build(&after)},
-        "first_risk_before": first_risk_json(&s, &before),
+        "first_risk_before": first_risk_json(s, &before),
         "risky_points_after": risky_after.len(),
         "risky_after": risky_after.iter().take(50).map(|&i| json!({"i": i, "layer": pl.points[i].layer,
-            "reason": judge(&s, &after.result.points[i], after.support[i], 0.0).map(|r| r.as_str()),
+            "reason": judge(s, &after.result.points[i], after.support[i], 0.0).map(|r| r.as_str()),
             "preheat_c": after.result.points[i].preheat - 273.15, "pool_length_mm": after.result.points[i].pool_length * 1e3})).collect::<Vec<_>>(),
         "unresolved_points": plan.unresolved.len(),
         "search_deposits_in_builds": plan.cost_builds,
@@ -68,22 +76,22 @@ pub fn run(scenario: &Path, out: &Path, baselines: bool) -> Result<String> {
     if baselines {
         let _stage = Stage::start("baselines: uniform dwell, wait until cool");
         let slots = dwell_points(&pl, &deps, settings.lead).len();
-        let uniform = uniform_baseline(&s, &pl, &deps, &settings).map_err(fail)?;
-        let waits = wait_until_cool(&s, &pl, &deps, &settings).map_err(fail)?;
+        let uniform = uniform_baseline(s, &pl, &deps, &settings).map_err(fail)?;
+        let waits = wait_until_cool(s, &pl, &deps, &settings).map_err(fail)?;
         let wait_total: f64 = waits.iter().sum();
         summary["baselines"] = json!({
-            "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(&s, &before)},
+            "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(s, &before)},
             "uniform": uniform.map(|d| json!({"dwell_per_revolution_s": d, "total_dwell_s": d * slots as f64, "dwell_count": slots})),
             "wait_until_cool": {"total_dwell_s": wait_total, "dwell_count": waits.iter().filter(|&&d| d > 0.0).count(),
-                "safe": first_risk(&s, &deps, &settings, &waits).map_err(fail)?.is_none()},
+                "safe": first_risk(s, &deps, &settings, &waits).map_err(fail)?.is_none()},
         });
         if let Some(d) = uniform {
             summary["ratio_to_uniform"] = json!(total / (d * slots as f64).max(1e-9));
         }
         summary["ratio_to_wait_until_cool"] = json!(total / wait_total.max(1e-9));
     }
-    super::plan::write_plan(&mut dir, &s, &pl)?;
-    write_thermal(&mut dir, &s, &pl, &after, &plan.dwell_s)?;
+    super::plan::write_plan(dir, s, &pl)?;
+    write_thermal(dir, s, &pl, &after, &plan.dwell_s)?;
     let mut csv = String::from("i,layer,t_s,dwell_s,reason,x_mm,y_mm,z_mm\n");
     for (i, &d) in plan.dwell_s.iter().enumerate() {
         if d > 0.0 {
@@ -102,7 +110,6 @@ pub fn run(scenario: &Path, out: &Path, baselines: bool) -> Result<String> {
     }
     dir.write("dwells.csv", csv.as_bytes())?;
     dir.write_json("dwell.json", &summary)?;
-    dir.finish("dwell", s.to_json())?;
     Ok(format!(
         "{count} dwells, {total:.0} s in all; build {:.0} s → {:.0} s; {} points still at risk; search {:.1} builds of wall time",
         build(&before),
