@@ -13,6 +13,7 @@ pub mod error;
 pub mod output;
 pub mod part;
 pub mod progress;
+pub mod record;
 pub mod risk;
 pub mod scenario;
 

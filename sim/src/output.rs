@@ -37,10 +37,30 @@ impl RunDir {
     pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<PathBuf> {
         let target = self.root.join(name);
         write_atomic(&target, bytes)?;
+        self.list(name);
+        Ok(target)
+    }
+
+    /// A temporary name in the run directory for a writer that streams to a file itself;
+    /// [`RunDir::commit`] renames it into place.
+    pub fn stage(&self, name: &str) -> PathBuf {
+        staging_name(&self.root.join(name))
+    }
+
+    pub fn commit(&mut self, staged: &Path, name: &str) -> Result<PathBuf> {
+        let target = self.root.join(name);
+        std::fs::rename(staged, &target).map_err(|e| {
+            let _ = std::fs::remove_file(staged);
+            Error::failure(format!("cannot write {}: {e}", target.display()))
+        })?;
+        self.list(name);
+        Ok(target)
+    }
+
+    fn list(&mut self, name: &str) {
         if !self.files.iter().any(|f| f == name) {
             self.files.push(name.to_string());
         }
-        Ok(target)
     }
 
     pub fn write_json(&mut self, name: &str, value: &serde_json::Value) -> Result<PathBuf> {
@@ -67,8 +87,7 @@ impl RunDir {
 }
 
 pub fn write_atomic(target: &Path, bytes: &[u8]) -> Result<()> {
-    let name = target.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let tmp = target.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let tmp = staging_name(target);
     let fail =
         |e: std::io::Error| Error::failure(format!("cannot write {}: {e}", target.display()));
     std::fs::write(&tmp, bytes).map_err(fail)?;
@@ -76,6 +95,12 @@ pub fn write_atomic(target: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
         fail(e)
     })
+}
+
+fn staging_name(target: &Path) -> PathBuf {
+    let name = target.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    // Hidden, and keeping the extension: some writers pick the format from it.
+    target.with_file_name(format!(".tmp-{}-{name}", std::process::id()))
 }
 
 /// `YYYY-MM-DDTHH:MM:SSZ` from Unix seconds (civil-from-days, H. Hinnant's algorithm).

@@ -5,6 +5,7 @@ mod cli;
 mod ctpp;
 mod dwell;
 mod inspect;
+mod outputs;
 mod scenarios;
 mod study;
 mod thermal;

@@ -1,7 +1,7 @@
 //! `waamtwin dwell SCENARIO -o DIR [--no-baselines]`: plan, simulate, plan the cooling dwells,
 //! check them in a fresh simulation of the dwelled path, and compare with the baselines.
 
-use super::simulate::{Simulation, simulate, write_thermal};
+use super::simulate::{Simulation, record, simulate, write_thermal};
 use crate::beads::beads;
 use crate::deposition::{schedule, wall_settings};
 use crate::dwell::{dwell_points, first_risk, plan_dwells, uniform_baseline, wait_until_cool};
@@ -34,14 +34,14 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
     let settings = wall_settings(s, &deps, Vec::new());
     let fail = |e: String| Error::input(format!("thermal: {e}"));
 
-    let before = simulate(s, &pl, &[])?;
+    let before = simulate(s, &pl, &[], 0)?;
     let clock = Instant::now();
     let plan = {
         let _stage = Stage::start("planning the dwells");
         plan_dwells(s, &pl, &deps, &settings).map_err(fail)?
     };
     let search_s = clock.elapsed().as_secs_f64();
-    let after = simulate(s, &pl, &plan.dwell_s)?;
+    let after = simulate(s, &pl, &plan.dwell_s, s.output.frames)?;
     let risky_after: Vec<usize> = (0..pl.points.len())
         .filter(|&i| judge(s, &after.result.points[i], after.support[i], 0.0).is_some())
         .collect();
@@ -92,6 +92,7 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
     }
     super::plan::write_plan(dir, s, &pl)?;
     write_thermal(dir, s, &pl, &after, &plan.dwell_s)?;
+    record(dir, s, &part, &pl, &after, &plan.dwell_s, Some(&before))?;
     let mut csv = String::from("i,layer,t_s,dwell_s,reason,x_mm,y_mm,z_mm\n");
     for (i, &d) in plan.dwell_s.iter().enumerate() {
         if d > 0.0 {

@@ -7,7 +7,9 @@ use crate::error::{Error, Result};
 use crate::output::RunDir;
 use crate::part::load_part;
 use crate::progress::Stage;
+use crate::record::{Run, Scene};
 use crate::scenario::{Scenario, ThermalModel};
+use planner::mesh::Part;
 use planner::plan::Plan;
 use serde_json::json;
 use std::fmt::Write;
@@ -28,10 +30,17 @@ pub struct Simulation {
     pub support: Vec<Support>,
 }
 
-pub fn simulate(s: &Scenario, pl: &Plan, dwell_s: &[f64]) -> Result<Simulation> {
+/// Simulate the build with `dwell_s[i]` before point i, keeping the field at up to `frames`
+/// times for the inspection outputs (0: none).
+pub fn simulate(s: &Scenario, pl: &Plan, dwell_s: &[f64], frames: usize) -> Result<Simulation> {
     let b = beads(s, pl);
     let deposits = schedule(s, pl, &b, dwell_s);
-    let settings = wall_settings(s, &deposits, Vec::new());
+    let build_s = deposits.last().map_or(0.0, |d| d.time);
+    let times = match frames {
+        0 => Vec::new(),
+        n => crate::record::frame_times(build_s, deposits.len(), n),
+    };
+    let settings = wall_settings(s, &deposits, times);
     let clock = Instant::now();
     let _stage = Stage::start("simulating the heat of the build");
     let result = match s.thermal.model {
@@ -115,11 +124,44 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     let part = load_part(&s.part)?;
     let mut dir = RunDir::create(out)?;
     let pl = super::plan::plan_part(&s, &part)?;
-    let sim = simulate(&s, &pl, &[])?;
+    let sim = simulate(&s, &pl, &[], s.output.frames)?;
     super::plan::write_plan(&mut dir, &s, &pl)?;
-    write_thermal(&mut dir, &s, &pl, &sim, &vec![0.0; pl.points.len()])?;
+    let no_dwell = vec![0.0; pl.points.len()];
+    write_thermal(&mut dir, &s, &pl, &sim, &no_dwell)?;
+    record(&mut dir, &s, &part, &pl, &sim, &no_dwell, None)?;
     dir.finish("simulate", s.to_json())?;
     Ok(summary(&s, &sim))
+}
+
+/// The inspection outputs the scenario switches on (`[output]`): run.rrd, run.mcap, fields.h5
+/// and the plots. `before` is the same build without dwells, where dwells were planned.
+pub fn record(
+    dir: &mut RunDir,
+    s: &Scenario,
+    part: &Part,
+    pl: &Plan,
+    sim: &Simulation,
+    dwell_s: &[f64],
+    before: Option<&Simulation>,
+) -> Result<()> {
+    let sinks = crate::record::sinks(s);
+    if sinks.is_empty() {
+        return Ok(());
+    }
+    let _stage = Stage::start("writing run.rrd, run.mcap, fields.h5 and the plots");
+    let planar = planner::planar::slice(part, s.process.deposit_m * 1e3);
+    let scene = Scene::build(Run {
+        s,
+        title: &s.title(),
+        part: &part.mesh,
+        plan: pl,
+        beads: &beads(s, pl),
+        sim,
+        dwell_s,
+        before,
+        planar_deposits_mm: Some(planar.all_deposits().collect()),
+    });
+    crate::record::record(&scene, sinks, dir)
 }
 
 pub fn summary(s: &Scenario, sim: &Simulation) -> String {
@@ -240,6 +282,7 @@ pub fn write_thermal(
         "interpass_max_c": s.dwell.interpass_max_k - C,
         "first_overheat": first_overheat(s, sim),
         "build_time_s": sim.deposits.last().map_or(0.0, |d| d.time),
+        "probe": crate::record::probe(sim).map(|p| json!({"point": p.point, "frame": p.frame, "t_s": p.t_s, "temperature_c": p.temperature_c})),
         "wall_nodes": r.n_wall_nodes,
         "plate_cells": r.node_positions.len().saturating_sub(r.n_wall_nodes),
         "steps": r.steps,

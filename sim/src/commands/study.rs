@@ -225,7 +225,7 @@ fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
     } else {
         vec![0.0; pl.points.len()]
     };
-    let sim = super::simulate::simulate(&s, &pl, &dwell)?;
+    let sim = super::simulate::simulate(&s, &pl, &dwell, 0)?;
     super::simulate::write_thermal(&mut d, &s, &pl, &sim, &dwell)?;
     let overrides: serde_json::Map<String, Value> = c
         .overrides
@@ -256,6 +256,7 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
     let read =
         |p: PathBuf| -> Option<Value> { serde_json::from_slice(&std::fs::read(p).ok()?).ok() };
     let mut rows = 0;
+    let mut tradeoff = Vec::new();
     for c in &study.cases {
         let dir = out.join("cases").join(&c.id);
         if !dir.join("manifest.json").is_file() {
@@ -293,8 +294,17 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
                 .map_or(String::new(), |v| v.to_string())
         );
         rows += 1;
+        tradeoff.push(crate::record::Case {
+            label: c.id.clone(),
+            total_dwell_s: case["total_dwell_s"].as_f64().unwrap_or(0.0),
+            max_preheat_c: thermal["max_preheat_c"].as_f64().unwrap_or(f64::NAN),
+            interpass_max_c: thermal["interpass_max_c"].as_f64().unwrap_or(f64::NAN),
+        });
     }
     write_atomic(&out.join("summary.csv"), csv.as_bytes())?;
+    if !tradeoff.is_empty() {
+        crate::record::study_plots(&mut RunDir::create(out)?, &tradeoff)?;
+    }
     Ok(rows)
 }
 

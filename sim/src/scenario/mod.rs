@@ -616,6 +616,16 @@ impl Scenario {
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(&self.raw).unwrap_or(serde_json::Value::Null)
     }
+
+    /// A short name for plots and recordings: the library shape or the mesh file.
+    pub fn title(&self) -> String {
+        match &self.part.source {
+            PartSource::Shape { .. } => self.raw.part.shape.clone().unwrap_or_default(),
+            PartSource::Mesh(p) => p
+                .file_name()
+                .map_or("part".into(), |n| n.to_string_lossy().into_owned()),
+        }
+    }
 }
 
 fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {

@@ -263,6 +263,8 @@ pub struct RawOutput {
     pub mcap: bool,
     pub hdf5: bool,
     pub plots: bool,
+    /// Most times the temperature field is kept (fewer on long paths: `record::frame_times`).
+    pub frames: usize,
 }
 
 impl Default for RawOutput {
@@ -272,6 +274,7 @@ impl Default for RawOutput {
             mcap: true,
             hdf5: true,
             plots: true,
+            frames: 100,
         }
     }
 }

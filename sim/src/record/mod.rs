@@ -1,0 +1,126 @@
+//! Inspection outputs: what an engineer opens in the tools they already use.
+//!
+//! A finished run becomes one [`Scene`] (what does not change: the part, the plan, the per-point
+//! results) and a time-ordered stream of [`Moment`]s (a path point laid, a field frame, an
+//! event). Each sink (rerun, MCAP, VTKHDF, plots) implements [`Sink`]; [`record`] feeds them
+//! all from one thread, in time order, so rerun's per-thread timelines and MCAP's log-time order
+//! hold by construction.
+//!
+//! Sizes stay bounded on long builds: fields are kept at most `[output] frames` times, and fewer
+//! when the path is long ([`frame_times`]); the torch is sampled at most [`TORCH_SAMPLES`] times.
+
+mod colour;
+mod foxglove;
+mod plots;
+mod rerun_sink;
+mod scene;
+mod vtkhdf;
+
+pub use colour::{Colour, temperature_colour};
+pub use plots::{Case, study_plots};
+pub use scene::{Event, Frame, Level, PointRecord, Probe, Run, Scene, probe};
+
+use crate::error::Result;
+use crate::output::RunDir;
+use crate::scenario::Scenario;
+
+/// Most field values kept over a run, frames × path points (16 MB of f32 per sink).
+pub const FIELD_BUDGET: usize = 4_000_000;
+
+/// Most torch poses logged over a run.
+pub const TORCH_SAMPLES: usize = 20_000;
+
+/// One moment of the build, in time order.
+#[derive(Debug, Clone, Copy)]
+pub enum Moment<'a> {
+    /// The torch lays path point i (at `scene.points[i].t_s`).
+    Point(usize),
+    /// The temperature of the deposited wall at one time.
+    Field(&'a Frame),
+    Event(&'a Event),
+}
+
+impl Moment<'_> {
+    pub fn time(&self, scene: &Scene) -> f64 {
+        match self {
+            Moment::Point(i) => scene.points[*i].t_s,
+            Moment::Field(f) => f.t_s,
+            Moment::Event(e) => e.t_s,
+        }
+    }
+}
+
+/// An output format. `begin` sees the scene once (and may stage a file in the run directory), `moment` every moment in time order, `finish`
+/// writes the file into the run directory (under a temporary name, renamed into place).
+pub trait Sink {
+    fn begin(&mut self, scene: &Scene, dir: &RunDir) -> Result<()>;
+    fn moment(&mut self, scene: &Scene, moment: Moment<'_>) -> Result<()>;
+    fn finish(self: Box<Self>, scene: &Scene, dir: &mut RunDir) -> Result<()>;
+}
+
+/// When to keep the field: evenly over the build, at most `frames` times and at most
+/// [`FIELD_BUDGET`] values in all, always including the end of the build.
+pub fn frame_times(build_s: f64, n_points: usize, frames: usize) -> Vec<f64> {
+    let n = frames.min(FIELD_BUDGET / n_points.max(1)).max(1);
+    (1..=n).map(|k| build_s * k as f64 / n as f64).collect()
+}
+
+/// The sinks the scenario switches on.
+pub fn sinks(s: &Scenario) -> Vec<Box<dyn Sink>> {
+    let o = &s.output;
+    let mut v: Vec<Box<dyn Sink>> = Vec::new();
+    if o.rerun {
+        v.push(Box::new(rerun_sink::RerunSink::default()));
+    }
+    if o.mcap {
+        v.push(Box::new(foxglove::McapSink::default()));
+    }
+    if o.hdf5 {
+        v.push(Box::new(vtkhdf::VtkHdfSink));
+    }
+    if o.plots {
+        v.push(Box::new(plots::PlotSink));
+    }
+    v
+}
+
+/// Feed every sink the scene and then every moment in time order, from this one thread.
+pub fn record(scene: &Scene, sinks: Vec<Box<dyn Sink>>, dir: &mut RunDir) -> Result<()> {
+    let mut sinks = sinks;
+    if sinks.is_empty() {
+        return Ok(());
+    }
+    for s in &mut sinks {
+        s.begin(scene, dir)?;
+    }
+    let stride = scene.points.len().div_ceil(TORCH_SAMPLES).max(1);
+    let mut moments: Vec<Moment> = (0..scene.points.len())
+        .filter(|i| i % stride == 0 || *i + 1 == scene.points.len())
+        .map(Moment::Point)
+        .chain(scene.frames.iter().map(Moment::Field))
+        .chain(scene.events.iter().map(Moment::Event))
+        .collect();
+    // Stable: a point, then the field at the same time, then the events it caused.
+    moments.sort_by(|a, b| a.time(scene).total_cmp(&b.time(scene)));
+    for m in moments {
+        for s in &mut sinks {
+            s.moment(scene, m)?;
+        }
+    }
+    for s in sinks {
+        s.finish(scene, dir)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn frames_are_bounded_and_end_at_the_build() {
+        let t = super::frame_times(100.0, 10, 50);
+        assert_eq!(t.len(), 50);
+        assert_eq!(*t.last().unwrap(), 100.0);
+        let t = super::frame_times(100.0, 1_000_000, 50);
+        assert_eq!(t.len(), 4);
+    }
+}

@@ -1,0 +1,452 @@
+//! PNG plots a person reads first: the preheat per revolution against the interpass limit (with
+//! and without dwells), deposit heights CTPP against planar slicing, temperature histories at
+//! points of the wall, the dwell schedule; and a study's trade-off between dwell and preheat.
+//! Text is drawn with DejaVu Sans, embedded (`assets/`), so no system font is needed.
+
+use super::{Moment, Scene, Sink};
+use crate::error::{Error, Result};
+use crate::output::RunDir;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::sync::Once;
+
+const SIZE: (u32, u32) = (1000, 620);
+const FONT: &str = "sans-serif";
+static FONT_BYTES: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+
+#[derive(Default)]
+pub struct PlotSink;
+
+fn fail(e: impl std::fmt::Display) -> Error {
+    Error::failure(format!("plots: {e}"))
+}
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The bytes are a valid TrueType font, checked by the plot tests.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES);
+    });
+}
+
+impl Sink for PlotSink {
+    fn begin(&mut self, _scene: &Scene, _dir: &RunDir) -> Result<()> {
+        Ok(())
+    }
+
+    /// Everything the plots show is in the scene; they are drawn at the end.
+    fn moment(&mut self, _scene: &Scene, _m: Moment<'_>) -> Result<()> {
+        Ok(())
+    }
+
+    fn finish(self: Box<Self>, scene: &Scene, dir: &mut RunDir) -> Result<()> {
+        draw(dir, "preheat.png", |a| preheat(a, scene))?;
+        draw(dir, "deposits.png", |a| deposits(a, scene))?;
+        if !scene.frames.is_empty() {
+            draw(dir, "temperature_history.png", |a| history(a, scene))?;
+        }
+        if scene.points.iter().any(|p| p.dwell_s > 0.0) {
+            draw(dir, "dwells.png", |a| dwells(a, scene))?;
+        }
+        Ok(())
+    }
+}
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type Drawn = std::result::Result<(), Box<dyn std::error::Error>>;
+
+/// Draw into a staged PNG and rename it into place.
+fn draw(dir: &mut RunDir, name: &str, f: impl FnOnce(&Area) -> Drawn) -> Result<()> {
+    register_font();
+    let staged = dir.stage(name);
+    {
+        let area = BitMapBackend::new(&staged, SIZE).into_drawing_area();
+        area.fill(&WHITE).map_err(fail)?;
+        f(&area).map_err(fail)?;
+        area.present().map_err(fail)?;
+    }
+    dir.commit(&staged, name)?;
+    Ok(())
+}
+
+fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = planner::plan::range(values.filter(|v| v.is_finite()));
+    if lo > hi {
+        return (0.0, 1.0);
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-6);
+    (lo - pad, hi + pad)
+}
+
+fn preheat(area: &Area, scene: &Scene) -> Drawn {
+    let without = scene.layers_without_dwells.as_deref().unwrap_or(&[]);
+    let all = scene
+        .layers
+        .iter()
+        .chain(without)
+        .map(|l| l.preheat_max_c)
+        .chain([scene.interpass_c, scene.ambient_c]);
+    let (lo, hi) = span(all);
+    let n = scene.layers.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            format!("{}: preheat per revolution", scene.title),
+            (FONT, 24),
+        )
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(0.0..n, lo..hi)?;
+    chart
+        .configure_mesh()
+        .x_desc("revolution (layer)")
+        .y_desc("preheat, °C")
+        .label_style((FONT, 15))
+        .draw()?;
+    let series = |rows: &[super::scene::LayerRecord], f: fn(&super::scene::LayerRecord) -> f64| {
+        rows.iter()
+            .map(move |l| (l.layer as f64, f(l)))
+            .collect::<Vec<_>>()
+    };
+    if !without.is_empty() {
+        chart
+            .draw_series(LineSeries::new(
+                series(without, |l| l.preheat_max_c),
+                RGBColor(200, 60, 60).stroke_width(2),
+            ))?
+            .label("max, without dwells")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RGBColor(200, 60, 60)));
+    }
+    let label = if without.is_empty() {
+        "max"
+    } else {
+        "max, with the planned dwells"
+    };
+    chart
+        .draw_series(LineSeries::new(
+            series(&scene.layers, |l| l.preheat_max_c),
+            BLUE.stroke_width(2),
+        ))?
+        .label(label)
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLUE));
+    chart
+        .draw_series(LineSeries::new(
+            series(&scene.layers, |l| l.preheat_mean_c),
+            RGBColor(90, 150, 250),
+        ))?
+        .label("mean")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RGBColor(90, 150, 250)));
+    chart
+        .draw_series(LineSeries::new(
+            [(0.0, scene.interpass_c), (n, scene.interpass_c)],
+            BLACK.stroke_width(2),
+        ))?
+        .label(format!("interpass limit {:.0} °C", scene.interpass_c))
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)
+}
+
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    at: SeriesLabelPosition,
+) -> Drawn
+where
+    DB::ErrorType: 'static,
+{
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font((FONT, 15))
+        .position(at)
+        .draw()?;
+    Ok(())
+}
+
+/// Share of points per bin; values off either end count in the end bins.
+fn histogram(values: &[f64], lo: f64, bin: f64, n: usize) -> Vec<(f64, f64)> {
+    let mut counts = vec![0usize; n];
+    for &v in values {
+        let k = ((v - lo) / bin).floor().clamp(0.0, (n - 1) as f64);
+        counts[k as usize] += 1;
+    }
+    let total = values.len().max(1) as f64;
+    counts
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| (lo + (k as f64 + 0.5) * bin, c as f64 / total))
+        .collect()
+}
+
+fn deposits(area: &Area, scene: &Scene) -> Drawn {
+    const BIN: f64 = 0.05;
+    let ctpp: Vec<f64> = scene.points.iter().map(|p| p.deposit_mm).collect();
+    let planar = scene.planar_deposits_mm.clone().unwrap_or_default();
+    // The window and a margin as wide again on each side; the rest piles up in the end bins.
+    let [h_min, h_max] = scene.window_mm;
+    let margin = (h_max - h_min).max(BIN);
+    let (lo, hi) = span(ctpp.iter().chain(&planar).copied());
+    let (lo, hi) = (lo.max(h_min - margin), hi.min(h_max + margin));
+    let (lo, hi) = (
+        (lo.min(h_min) / BIN).floor() * BIN,
+        (hi.max(h_max) / BIN).ceil() * BIN,
+    );
+    let beyond = |v: &Vec<f64>| v.iter().filter(|&&x| x < lo || x >= hi).count();
+    let n = ((hi - lo) / BIN).round().max(1.0) as usize;
+    let h_ctpp = histogram(&ctpp, lo, BIN, n);
+    let h_planar = histogram(&planar, lo, BIN, n);
+    let top = h_ctpp
+        .iter()
+        .chain(&h_planar)
+        .map(|p| p.1)
+        .fold(0.0, f64::max)
+        * 1.1;
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            "deposit height: CTPP against planar 2.5D slicing",
+            (FONT, 24),
+        )
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(lo..hi, 0.0..top.max(1e-3))?;
+    chart
+        .configure_mesh()
+        .x_desc("deposit height H, mm (bins of 0.05 mm; the end bins hold what lies beyond)")
+        .y_desc("share of path points")
+        .label_style((FONT, 15))
+        .draw()?;
+    let bars = |h: Vec<(f64, f64)>, shift: f64, c: RGBColor| {
+        h.into_iter().map(move |(x, y)| {
+            let x0 = x - BIN / 2.0 + shift * BIN / 2.0;
+            Rectangle::new([(x0, 0.0), (x0 + BIN / 2.0, y)], c.filled())
+        })
+    };
+    chart
+        .draw_series(bars(h_ctpp, 0.0, RGBColor(50, 100, 220)))?
+        .label(format!(
+            "CTPP ({} points, {} beyond the axis)",
+            ctpp.len(),
+            beyond(&ctpp)
+        ))
+        .legend(|(x, y)| {
+            Rectangle::new(
+                [(x, y - 5), (x + 15, y + 5)],
+                RGBColor(50, 100, 220).filled(),
+            )
+        });
+    if !planar.is_empty() {
+        chart
+            .draw_series(bars(h_planar, 1.0, RGBColor(230, 120, 40)))?
+            .label(format!(
+                "planar 2.5D ({} points, {} beyond the axis)",
+                planar.len(),
+                beyond(&planar)
+            ))
+            .legend(|(x, y)| {
+                Rectangle::new(
+                    [(x, y - 5), (x + 15, y + 5)],
+                    RGBColor(230, 120, 40).filled(),
+                )
+            });
+    }
+    for (k, &h) in scene.window_mm.iter().enumerate() {
+        let s = chart.draw_series(LineSeries::new([(h, 0.0), (h, top)], BLACK.stroke_width(2)))?;
+        if k == 0 {
+            s.label(format!(
+                "window [{:.2}, {:.2}] mm",
+                scene.window_mm[0], scene.window_mm[1]
+            ))
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+        }
+    }
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)
+}
+
+/// Points a quarter, half and three quarters up the path.
+fn history_points(n: usize) -> [usize; 3] {
+    [n / 4, n / 2, 3 * n / 4]
+}
+
+fn history(area: &Area, scene: &Scene) -> Drawn {
+    let n = scene.points.len();
+    let picks = history_points(n);
+    let (lo, hi) = span(
+        scene
+            .frames
+            .iter()
+            .flat_map(|f| picks.iter().map(|&i| f.temperature_c[i] as f64))
+            .chain([scene.interpass_c, scene.ambient_c]),
+    );
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            format!(
+                "temperature of the wall at three path points ({} field frames)",
+                scene.frames.len()
+            ),
+            (FONT, 24),
+        )
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(0.0..scene.build_s.max(1e-3), lo..hi)?;
+    chart
+        .configure_mesh()
+        .x_desc("build time, s")
+        .y_desc("temperature, °C")
+        .label_style((FONT, 15))
+        .draw()?;
+    let colours = [
+        RGBColor(50, 100, 220),
+        RGBColor(40, 160, 80),
+        RGBColor(210, 60, 60),
+    ];
+    for (&i, c) in picks.iter().zip(colours) {
+        let pts: Vec<(f64, f64)> = scene
+            .frames
+            .iter()
+            .filter(|f| f.temperature_c[i].is_finite())
+            .map(|f| (f.t_s, f.temperature_c[i] as f64))
+            .collect();
+        let p = &scene.points[i];
+        chart
+            .draw_series(LineSeries::new(pts, c.stroke_width(2)))?
+            .label(format!(
+                "point {i} (layer {}, z = {:.0} mm)",
+                p.layer, p.position_mm[2]
+            ))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c));
+    }
+    chart
+        .draw_series(LineSeries::new(
+            [(0.0, scene.interpass_c), (scene.build_s, scene.interpass_c)],
+            BLACK.stroke_width(1),
+        ))?
+        .label("interpass limit")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)
+}
+
+fn dwells(area: &Area, scene: &Scene) -> Drawn {
+    let n = scene.layers.len().max(1) as f64;
+    let top = scene.layers.iter().map(|l| l.dwell_s).fold(0.0, f64::max) * 1.1;
+    let total: f64 = scene.points.iter().map(|p| p.dwell_s).sum();
+    let count = scene.points.iter().filter(|p| p.dwell_s > 0.0).count();
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            format!("dwell schedule: {count} arc stops, {total:.0} s in all"),
+            (FONT, 24),
+        )
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(0.0..n, 0.0..top.max(1.0))?;
+    chart
+        .configure_mesh()
+        .x_desc("revolution (layer)")
+        .y_desc("dwell in the revolution, s")
+        .label_style((FONT, 15))
+        .draw()?;
+    chart.draw_series(scene.layers.iter().map(|l| {
+        let x = l.layer as f64;
+        Rectangle::new(
+            [(x, 0.0), (x + 0.8, l.dwell_s)],
+            RGBColor(50, 100, 220).filled(),
+        )
+    }))?;
+    Ok(())
+}
+
+/// One case of a study, as its trade-off plot shows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Case {
+    pub label: String,
+    pub total_dwell_s: f64,
+    pub max_preheat_c: f64,
+    pub interpass_max_c: f64,
+}
+
+/// A study's cases: total dwell against the highest preheat, one marker per case, coloured by
+/// the case's interpass limit (each limit also drawn as a line).
+pub fn study_plots(dir: &mut RunDir, cases: &[Case]) -> Result<()> {
+    let mut limits: Vec<f64> = cases.iter().map(|c| c.interpass_max_c).collect();
+    limits.sort_by(f64::total_cmp);
+    limits.dedup();
+    let palette = [
+        RGBColor(50, 100, 220),
+        RGBColor(210, 60, 60),
+        RGBColor(40, 160, 80),
+        RGBColor(230, 140, 30),
+        RGBColor(130, 60, 180),
+    ];
+    let colour = |limit: f64| {
+        let k = limits.iter().position(|&l| l == limit).unwrap_or(0);
+        palette[k % palette.len()]
+    };
+    draw(dir, "tradeoff.png", |area| {
+        let (x_lo, x_hi) = span(cases.iter().map(|c| c.total_dwell_s).chain([0.0]));
+        let (y_lo, y_hi) = span(
+            cases
+                .iter()
+                .map(|c| c.max_preheat_c)
+                .chain(limits.iter().copied()),
+        );
+        let mut chart = ChartBuilder::on(area)
+            .caption(
+                format!(
+                    "study of {} cases: total dwell against the highest preheat",
+                    cases.len()
+                ),
+                (FONT, 24),
+            )
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)?;
+        chart
+            .configure_mesh()
+            .x_desc("total dwell, s")
+            .y_desc("highest preheat, °C")
+            .label_style((FONT, 15))
+            .draw()?;
+        chart.draw_series(cases.iter().map(|c| {
+            EmptyElement::at((c.total_dwell_s, c.max_preheat_c))
+                + Circle::new((0, 0), 5, colour(c.interpass_max_c).filled())
+                + Text::new(c.label.clone(), (7, -7), (FONT, 12))
+        }))?;
+        for &l in &limits {
+            let c = colour(l);
+            chart
+                .draw_series(LineSeries::new([(x_lo, l), (x_hi, l)], c.stroke_width(1)))?
+                .label(format!("cases with the interpass limit {l:.0} °C"))
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c));
+        }
+        legend(&mut chart, SeriesLabelPosition::LowerLeft)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn histogram_shares_sum_to_one_inside_the_range() {
+        let h = super::histogram(&[1.81, 1.84, 2.0, 2.19], 1.8, 0.05, 8);
+        assert_eq!(h.len(), 8);
+        assert!((h.iter().map(|b| b.1).sum::<f64>() - 1.0).abs() < 1e-12);
+        assert_eq!(h[0].1, 0.5);
+        let h = super::histogram(&[0.0, 5.0], 1.8, 0.05, 8);
+        assert_eq!((h[0].1, h[7].1), (0.5, 0.5));
+        assert!((h[0].0 - 1.825).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_embedded_font_is_valid() {
+        assert!(
+            plotters::style::register_font(
+                "check",
+                plotters::style::FontStyle::Normal,
+                super::FONT_BYTES
+            )
+            .is_ok()
+        );
+    }
+}

@@ -1,0 +1,345 @@
+//! The scene a run shows, built once from the plan and the simulation: plain data in the
+//! interface units (mm, s, °C, W), so that every sink reads the same numbers.
+
+use crate::beads::Beads;
+use crate::commands::simulate::{Simulation, layers};
+use crate::risk::judge;
+use crate::scenario::Scenario;
+use planner::mesh::TriMesh;
+use planner::plan::Plan;
+
+const C: f64 = 273.15;
+
+/// Per path point, in deposition order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointRecord {
+    /// When the torch finishes laying it, s.
+    pub t_s: f64,
+    pub position_mm: [f64; 3],
+    /// Unit vector from the deposit to the torch.
+    pub tool: [f64; 3],
+    pub layer: usize,
+    pub generator: usize,
+    pub deposit_mm: f64,
+    pub preheat_c: f64,
+    pub power_w: f64,
+    /// The pause before it, s.
+    pub dwell_s: f64,
+    pub risk: Option<&'static str>,
+}
+
+/// Per revolution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LayerRecord {
+    pub layer: usize,
+    pub t_start_s: f64,
+    pub preheat_max_c: f64,
+    pub preheat_mean_c: f64,
+    pub dwell_s: f64,
+}
+
+/// The wall's temperature at one time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    pub t_s: f64,
+    /// Path points laid by then.
+    pub laid: usize,
+    /// Per path point, °C; NaN where not yet laid.
+    pub temperature_c: Vec<f32>,
+}
+
+impl Frame {
+    pub fn max_c(&self) -> f32 {
+        self.temperature_c[..self.laid]
+            .iter()
+            .copied()
+            .fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Level {
+    Info,
+    Warning,
+}
+
+/// Something the run decided or detected, at a time of the build.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Event {
+    pub t_s: f64,
+    pub level: Level,
+    pub text: String,
+}
+
+/// One field value that `thermal.json` states beside the files, for readers to check against.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Probe {
+    pub point: usize,
+    pub frame: usize,
+    pub t_s: f64,
+    pub temperature_c: f64,
+}
+
+/// Everything a sink shows.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    pub title: String,
+    /// The scenario as the manifest echoes it.
+    pub scenario: serde_json::Value,
+    /// The part's mid-surface, mm.
+    pub part: TriMesh,
+    /// Centre of the plate's top face (x, y) and its size (x, y, thickness), mm.
+    pub plate_centre_mm: [f64; 2],
+    pub plate_size_mm: [f64; 3],
+    pub generators: Vec<Vec<[f64; 3]>>,
+    pub points: Vec<PointRecord>,
+    /// The deposited wall as triangles over the path points: each point joined to the point it
+    /// is laid on and to its neighbours along the spiral.
+    pub wall: Vec<[u32; 3]>,
+    pub layers: Vec<LayerRecord>,
+    /// The same revolutions without dwells, where the run planned dwells.
+    pub layers_without_dwells: Option<Vec<LayerRecord>>,
+    pub frames: Vec<Frame>,
+    pub events: Vec<Event>,
+    pub probe: Option<Probe>,
+    pub interpass_c: f64,
+    pub ambient_c: f64,
+    /// Deposit window h_min, h_max, mm.
+    pub window_mm: [f64; 2],
+    /// Planar 2.5D slicing's deposits, for the comparison with CTPP.
+    pub planar_deposits_mm: Option<Vec<f64>>,
+    pub build_s: f64,
+}
+
+/// What a run hands over to be recorded.
+pub struct Run<'a> {
+    pub s: &'a Scenario,
+    pub title: &'a str,
+    pub part: &'a TriMesh,
+    pub plan: &'a Plan,
+    pub beads: &'a Beads,
+    pub sim: &'a Simulation,
+    pub dwell_s: &'a [f64],
+    /// The run without dwells, where dwells were planned.
+    pub before: Option<&'a Simulation>,
+    pub planar_deposits_mm: Option<Vec<f64>>,
+}
+
+impl Scene {
+    pub fn build(r: Run<'_>) -> Scene {
+        let (s, pl, sim) = (r.s, r.plan, r.sim);
+        let dwell = |i: usize| r.dwell_s.get(i).copied().unwrap_or(0.0);
+        let points: Vec<PointRecord> = pl
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, q)| PointRecord {
+                t_s: sim.deposits[i].time,
+                position_mm: [q.position.x, q.position.y, q.position.z],
+                tool: [q.tool.x, q.tool.y, q.tool.z],
+                layer: q.layer,
+                generator: q.generator,
+                deposit_mm: q.deposit_mm,
+                preheat_c: sim.result.points[i].preheat - C,
+                power_w: r.beads.beads[i].power_w,
+                dwell_s: dwell(i),
+                risk: judge(s, &sim.result.points[i], sim.support[i], 0.0).map(|k| k.as_str()),
+            })
+            .collect();
+        let frames = frames(sim);
+        let probe = probe(sim);
+        let centre = plate_centre(sim);
+        Scene {
+            title: r.title.to_string(),
+            scenario: s.to_json(),
+            part: r.part.clone(),
+            plate_centre_mm: centre,
+            plate_size_mm: s.thermal.plate_m.map(|v| v * 1e3),
+            generators: pl
+                .generators
+                .iter()
+                .map(|g| g.points.iter().map(|p| [p.x, p.y, p.z]).collect())
+                .collect(),
+            wall: wall(points.len(), pl.generators.len()),
+            layers: layer_records(pl, sim, r.dwell_s),
+            layers_without_dwells: r.before.map(|b| layer_records(pl, b, &[])),
+            events: events(s, pl, &points, r.before),
+            frames,
+            probe,
+            interpass_c: s.dwell.interpass_max_k - C,
+            ambient_c: s.thermal.ambient_k - C,
+            window_mm: [s.process.deposit_min_m * 1e3, s.process.deposit_max_m * 1e3],
+            planar_deposits_mm: r.planar_deposits_mm,
+            build_s: sim.deposits.last().map_or(0.0, |d| d.time),
+            points,
+        }
+    }
+}
+
+fn layer_records(pl: &Plan, sim: &Simulation, dwell_s: &[f64]) -> Vec<LayerRecord> {
+    layers(pl, sim, dwell_s)
+        .into_iter()
+        .map(|l| LayerRecord {
+            layer: l.layer,
+            t_start_s: l.t_start_s,
+            preheat_max_c: l.preheat_max_k - C,
+            preheat_mean_c: l.preheat_mean_k - C,
+            dwell_s: l.dwell_s,
+        })
+        .collect()
+}
+
+/// The spiral lays point i on point i − n (one revolution of n generators earlier), so the
+/// deposited wall is the strip between consecutive revolutions.
+pub fn wall(n_points: usize, n_generators: usize) -> Vec<[u32; 3]> {
+    let n = n_generators;
+    (n..n_points.saturating_sub(1))
+        .flat_map(|i| {
+            let (a, b, c, d) = ((i - n) as u32, (i - n + 1) as u32, (i + 1) as u32, i as u32);
+            [[a, b, c], [a, c, d]]
+        })
+        .collect()
+}
+
+/// The kept snapshots of the thin-wall field, per path point.
+fn frames(sim: &Simulation) -> Vec<Frame> {
+    let r = &sim.result;
+    if r.node_of_deposit.len() != sim.deposits.len() {
+        return Vec::new();
+    }
+    r.snapshots
+        .iter()
+        .map(|snap| {
+            let laid = sim.deposits.partition_point(|d| d.time <= snap.time + 1e-9);
+            Frame {
+                t_s: snap.time,
+                laid,
+                temperature_c: (0..sim.deposits.len())
+                    .map(|i| {
+                        if i < laid {
+                            (snap.temperature[r.node_of_deposit[i]] - C) as f32
+                        } else {
+                            f32::NAN
+                        }
+                    })
+                    .collect(),
+            }
+        })
+        .collect()
+}
+
+/// The middle of the path, at the first frame after it was laid: read straight from the
+/// simulation's snapshot, not from a frame, so a reader can check the files against it.
+pub fn probe(sim: &Simulation) -> Option<Probe> {
+    let point = sim.deposits.len() / 2;
+    let laid = sim.deposits.get(point)?.time;
+    let r = &sim.result;
+    if r.node_of_deposit.len() != sim.deposits.len() {
+        return None;
+    }
+    let frame = r.snapshots.iter().position(|f| f.time + 1e-9 >= laid)?;
+    let snap = &r.snapshots[frame];
+    Some(Probe {
+        point,
+        frame,
+        t_s: snap.time,
+        temperature_c: snap.temperature[sim.result.node_of_deposit[point]] - C,
+    })
+}
+
+fn plate_centre(sim: &Simulation) -> [f64; 2] {
+    let first: Vec<_> = sim
+        .deposits
+        .iter()
+        .filter(|d| d.support.is_none())
+        .collect();
+    if first.is_empty() {
+        return [0.0, 0.0];
+    }
+    let (lo, hi) = first.iter().fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(mut lo, mut hi), d| {
+            for k in 0..2 {
+                lo[k] = lo[k].min(d.position[k]);
+                hi[k] = hi[k].max(d.position[k]);
+            }
+            (lo, hi)
+        },
+    );
+    [(lo[0] + hi[0]) * 500.0, (lo[1] + hi[1]) * 500.0]
+}
+
+/// Overheating found, dwells inserted (each an arc stop and restart), nozzle collisions.
+fn events(
+    s: &Scenario,
+    pl: &Plan,
+    points: &[PointRecord],
+    before: Option<&Simulation>,
+) -> Vec<Event> {
+    let mut ev = Vec::new();
+    if let Some(b) = before
+        && let Some(i) = (0..b.result.points.len())
+            .find(|&i| judge(s, &b.result.points[i], b.support[i], 0.0).is_some())
+    {
+        ev.push(Event {
+            t_s: 0.0,
+            level: Level::Warning,
+            text: format!(
+                "without dwells: overheating from point {i} (layer {}), preheat {:.0} °C over the {:.0} °C limit",
+                pl.points[i].layer,
+                b.result.points[i].preheat - C,
+                s.dwell.interpass_max_k - C
+            ),
+        });
+    }
+    let mut last_risky_layer = None;
+    for (i, p) in points.iter().enumerate() {
+        if p.dwell_s > 0.0 {
+            ev.push(Event {
+                t_s: p.t_s - p.dwell_s,
+                level: Level::Info,
+                text: format!(
+                    "dwell inserted: {:.1} s before point {i} (layer {}): arc stop and restart",
+                    p.dwell_s, p.layer
+                ),
+            });
+        }
+        if let Some(reason) = p.risk
+            && last_risky_layer != Some(p.layer)
+        {
+            last_risky_layer = Some(p.layer);
+            ev.push(Event {
+                t_s: p.t_s,
+                level: Level::Warning,
+                text: format!(
+                    "overheating detected ({reason}): point {i}, layer {}, preheat {:.0} °C",
+                    p.layer, p.preheat_c
+                ),
+            });
+        }
+    }
+    for &i in &pl.collisions {
+        ev.push(Event {
+            t_s: points[i].t_s,
+            level: Level::Warning,
+            text: format!(
+                "nozzle collision at point {i}: the nozzle meets deposited metal (unresolved)"
+            ),
+        });
+    }
+    ev.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    ev
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn wall_joins_each_point_to_the_one_beneath() {
+        // Two revolutions of three generators and one more point.
+        let w = super::wall(7, 3);
+        assert_eq!(w.len(), 6);
+        assert_eq!(w[0], [0, 1, 4]);
+        assert_eq!(w[1], [0, 4, 3]);
+        assert!(w.iter().flatten().all(|&v| v < 7));
+    }
+}

@@ -1,0 +1,141 @@
+//! The inspection outputs (run.rrd, run.mcap, fields.h5, PNG plots): read back here in Rust, and
+//! by the reference readers of each format (tests/readers/check_outputs.py), which this test
+//! installs from PyPI into target/readers-venv on first use.
+
+use crate::{root, scratch, waamtwin};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const DOME: &str = "[part]\nshape = \"hemisphere\"\nradius_mm = 40.0\nedge_mm = 2.5\n[planner]\nn_points = 60\n[thermal]\nplate_mm = [150.0, 150.0, 10.0]\n[output]\nframes = 40\n";
+
+fn run_dome(name: &str, extra: &str) -> PathBuf {
+    let dir = scratch(name);
+    std::fs::write(dir.join("s.toml"), format!("{DOME}{extra}")).unwrap();
+    let out = dir.join("out");
+    let o = waamtwin(&[
+        "dwell",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--no-baselines",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// A virtual environment with the pinned readers, made once per target directory.
+fn readers() -> PathBuf {
+    let venv = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .unwrap()
+        .join("readers-venv");
+    let requirements = root().join("tests/readers/requirements.txt");
+    let wanted = std::fs::read_to_string(&requirements).unwrap();
+    let marker = venv.join("installed-requirements.txt");
+    if std::fs::read_to_string(&marker).ok().as_deref() != Some(wanted.as_str()) {
+        let ok = |c: &mut Command| c.status().is_ok_and(|s| s.success());
+        assert!(
+            ok(Command::new("python3").args(["-m", "venv"]).arg(&venv)),
+            "python3 -m venv {} failed",
+            venv.display()
+        );
+        assert!(
+            ok(Command::new(venv.join("bin/pip"))
+                .args(["install", "--quiet", "--disable-pip-version-check", "-r"])
+                .arg(&requirements)),
+            "pip install -r {} failed (the readers come from PyPI)",
+            requirements.display()
+        );
+        std::fs::write(&marker, wanted).unwrap();
+    }
+    venv
+}
+
+#[test]
+fn outputs_open_in_their_readers() {
+    let out = run_dome("outputs_dome", "");
+    let manifest = json(&out.join("manifest.json"));
+    let files: Vec<&str> = manifest["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap())
+        .collect();
+    for f in [
+        "run.rrd",
+        "run.mcap",
+        "fields.h5",
+        "preheat.png",
+        "deposits.png",
+        "temperature_history.png",
+        "dwells.png",
+    ] {
+        assert!(files.contains(&f), "{f} not in the manifest: {files:?}");
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    // PNGs are PNGs.
+    let png = std::fs::read(out.join("preheat.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+
+    // fields.h5 read back by the pure-Rust reader: the probe's temperature.
+    let probe = json(&out.join("thermal.json"))["probe"].clone();
+    let h5 = hdf5_pure::File::from_bytes(std::fs::read(out.join("fields.h5")).unwrap()).unwrap();
+    let n = h5
+        .dataset("VTKHDF/NumberOfPoints")
+        .unwrap()
+        .read_i64()
+        .unwrap()[0] as usize;
+    let t = h5
+        .dataset("VTKHDF/PointData/temperature_c")
+        .unwrap()
+        .read_f32()
+        .unwrap();
+    let k =
+        probe["frame"].as_u64().unwrap() as usize * n + probe["point"].as_u64().unwrap() as usize;
+    let want = probe["temperature_c"].as_f64().unwrap();
+    assert!((t[k] as f64 - want).abs() < 1e-3, "{} vs {want}", t[k]);
+
+    // run.mcap through the mcap crate's reader: every message in log-time order.
+    let bytes = std::fs::read(out.join("run.mcap")).unwrap();
+    let mut last = 0;
+    let mut topics = std::collections::BTreeSet::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        assert!(m.log_time >= last, "{} out of order", m.channel.topic);
+        last = m.log_time;
+        serde_json::from_slice::<serde_json::Value>(&m.data).unwrap();
+        topics.insert(m.channel.topic.clone());
+    }
+    assert!(
+        topics.contains("/wall/temperature") && topics.contains("/tf"),
+        "{topics:?}"
+    );
+
+    // And by the reference readers.
+    let venv = readers();
+    let check = Command::new(venv.join("bin/python"))
+        .arg(root().join("tests/readers/check_outputs.py"))
+        .arg(&out)
+        .arg(venv.join("bin/rerun"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&check.stdout);
+    eprintln!("{text}{}", String::from_utf8_lossy(&check.stderr));
+    assert!(check.status.success(), "reference readers failed:\n{text}");
+}
+
+#[test]
+fn each_sink_switches_off() {
+    let out = run_dome(
+        "outputs_off",
+        "rerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
+    );
+    for f in ["run.rrd", "run.mcap", "fields.h5", "preheat.png"] {
+        assert!(!out.join(f).exists(), "{f} written though switched off");
+    }
+    assert!(out.join("thermal.json").is_file());
+}
