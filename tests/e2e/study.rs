@@ -109,3 +109,94 @@ fn a_killed_study_resumes_and_shards_merge_into_the_same_summary() {
             && script.contains("--shard ${SLURM_ARRAY_TASK_ID}/12")
     );
 }
+
+/// A real single-node Slurm (tests/slurm/start.sh installs and starts the distribution's
+/// slurm-wlm on loopback) runs a small study as a job array; the merge job's summary equals a
+/// local run's.
+#[test]
+fn slurm_runs_a_study_as_a_job_array() {
+    let dir = scratch("study_slurm");
+    std::fs::write(
+        dir.join("base.toml"),
+        "[part]\nshape = \"cylinder\"\nradius_mm = 25.0\nheight_mm = 14.0\nedge_mm = 2.5\n[planner]\nn_points = 40\n[thermal]\nplate_mm = [100.0, 100.0, 8.0]\n[output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
+    )
+    .unwrap();
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        "base = \"base.toml\"\ncommand = \"simulate\"\n[sweep]\n\"process.travel_speed_mm_s\" = [8.0, 12.0]\n\"thermal.convection_w_m2k\" = [10.0, 30.0]\n",
+    )
+    .unwrap();
+    let s = study.to_str().unwrap();
+    let local = dir.join("local");
+    assert!(
+        study_cmd(&[s, "-o", local.to_str().unwrap()])
+            .status()
+            .unwrap()
+            .success()
+    );
+
+    let start = Command::new("bash")
+        .arg(root().join("tests/slurm/start.sh"))
+        .output()
+        .unwrap();
+    assert!(
+        start.status.success(),
+        "Slurm did not start: {}",
+        String::from_utf8_lossy(&start.stderr)
+    );
+    let conf = String::from_utf8_lossy(&start.stdout).trim().to_string();
+    let cluster = dir.join("cluster");
+    assert!(
+        study_cmd(&[s, "-o", cluster.to_str().unwrap(), "--emit", "slurm"])
+            .status()
+            .unwrap()
+            .success()
+    );
+    // The array runs `waamtwin` from PATH, as on a cluster where it is installed.
+    let bin = std::path::Path::new(env!("CARGO_BIN_EXE_waamtwin"))
+        .parent()
+        .unwrap();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let sbatch = |args: &[&str]| {
+        let o = Command::new("sbatch")
+            .args(args)
+            .env("SLURM_CONF", &conf)
+            .env("PATH", &path)
+            .current_dir(root())
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "sbatch {args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).trim().to_string()
+    };
+    let array = cluster.join("study.slurm");
+    let jid = sbatch(&["--parsable", array.to_str().unwrap()]);
+    let merge = cluster.join("study-merge.slurm");
+    sbatch(&[
+        "--wait",
+        &format!("--dependency=afterok:{jid}"),
+        merge.to_str().unwrap(),
+    ]);
+    let logs: Vec<_> = std::fs::read_dir(&cluster)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with("slurm-"))
+        .collect();
+    assert_eq!(
+        logs.len(),
+        5,
+        "4 array tasks and the merge job leave their logs"
+    );
+    assert_eq!(
+        std::fs::read_to_string(cluster.join("summary.csv")).unwrap(),
+        std::fs::read_to_string(local.join("summary.csv")).unwrap()
+    );
+}

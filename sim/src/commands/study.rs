@@ -308,19 +308,24 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
     Ok(rows)
 }
 
-/// A Slurm job-array script: one array task per case shard, then the summary.
+/// Slurm scripts: a job array with one task per case shard, and a merge job that rebuilds
+/// summary.csv from every finished case once the array is done (array tasks that finish
+/// together may each write a summary that misses the other).
 fn emit_slurm(study: &Path, out: &Path, cases: usize) -> Result<String> {
-    let script = format!(
-        "#!/bin/bash\n# waamtwin study as a Slurm job array: `sbatch {out}/study.slurm`.\n#SBATCH --job-name=waamtwin-study\n#SBATCH --array=0-{last}\n#SBATCH --cpus-per-task=2\n#SBATCH --output={out}/slurm-%A_%a.out\nset -euo pipefail\nwaamtwin study {study} -o {out} --shard ${{SLURM_ARRAY_TASK_ID}}/{n}\n",
-        out = out.display(),
-        study = study.display(),
+    let (out_s, study_s) = (out.display(), study.display());
+    let array = format!(
+        "#!/bin/bash\n# waamtwin study as a Slurm job array; submit with the merge job after it:\n#   jid=$(sbatch --parsable {out_s}/study.slurm)\n#   sbatch --dependency=afterok:$jid {out_s}/study-merge.slurm\n#SBATCH --job-name=waamtwin-study\n#SBATCH --array=0-{last}\n#SBATCH --cpus-per-task=2\n#SBATCH --output={out_s}/slurm-%A_%a.out\nset -euo pipefail\nwaamtwin study {study_s} -o {out_s} --shard ${{SLURM_ARRAY_TASK_ID}}/{n}\n",
         last = cases.saturating_sub(1),
         n = cases.max(1)
     );
-    let path = out.join("study.slurm");
-    write_atomic(&path, script.as_bytes())?;
+    let merge = format!(
+        "#!/bin/bash\n# Rebuilds {out_s}/summary.csv once every array task of study.slurm is done: every case\n# is skipped as finished, and the summary and plots are written from all of them.\n#SBATCH --job-name=waamtwin-study-merge\n#SBATCH --output={out_s}/slurm-merge-%j.out\nset -euo pipefail\nwaamtwin study {study_s} -o {out_s}\n"
+    );
+    write_atomic(&out.join("study.slurm"), array.as_bytes())?;
+    write_atomic(&out.join("study-merge.slurm"), merge.as_bytes())?;
     Ok(format!(
-        "{}: {cases} array tasks; each runs one case and rewrites summary.csv",
-        path.display()
+        "{}: {cases} array tasks, one case shard each; then study-merge.slurm rebuilds summary.csv \
+         (jid=$(sbatch --parsable {out_s}/study.slurm); sbatch --dependency=afterok:$jid {out_s}/study-merge.slurm)",
+        out.join("study.slurm").display()
     ))
 }
