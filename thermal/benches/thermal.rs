@@ -5,7 +5,7 @@
 //!    thread and on two; updates per second.
 //! 2. The thin-wall model on a whole build: the 80-revolution cylinder R 80 × 160 mm.
 //!
-//! Run: `cargo bench -p thermal --bench thermal`
+//! Run: `cargo bench -p thermal --bench thermal` (add `-- voxel` for the kernel alone)
 
 use std::time::Instant;
 use thermal::material::Material;
@@ -67,6 +67,10 @@ fn main() {
                 secs * 1e9 / (m.active() * steps) as f64
             );
         });
+    }
+    // `cargo bench -p thermal --bench thermal -- voxel` times the kernel alone.
+    if std::env::args().any(|a| a == "voxel") {
+        return;
     }
     let deps = cylinder(0.08, 126, 80);
     let ws = WallSettings {
