@@ -267,17 +267,10 @@ pub fn fill_gaps(
         .map(|i| gap(&gens[i], &gens[(i + 1) % n], surface, step_mm).0)
         .collect();
     // Unwrapped parameters of the upper ends, in generator order (see `unwrap_upper_ends`).
-    let mut ends: Vec<f64> = match &upper {
+    let (mut ends, turn) = match &upper {
         Some(up) => unwrap_upper_ends(up, gens, &eps),
-        None => vec![0.0; n],
+        None => (vec![0.0; n], 0.0),
     };
-    let turn = ends.last().map_or(0.0, |_| {
-        let up = upper.as_ref();
-        up.map_or(0.0, |up| {
-            let d = up.wrap(up.param(gens[0].end()) - up.param(gens[n - 1].end()));
-            ends[n - 1] + d - ends[0]
-        })
-    });
     let mut filled = 0;
     let mut i = 0;
     while i < gens.len() && filled < max_fill {
@@ -349,26 +342,58 @@ fn median(
             .sum::<Vector3<f64>>()
     };
     let (n0, n1) = (normal_at(start), normal_at(end));
+    let middle = |k: usize| Point3::from((pa[k].coords + pb[k].coords) / 2.0);
+    // The fill's own ends differ from the median's where the neighbours converge away from it
+    // (on a bent tube both run to the inside of the bend, the fill's end is on the outside):
+    // the median is shifted, linearly in t, by the offsets of the ends, so it leads there.
+    let (off0, off1) = (start - middle(0), end - middle(m - 1));
     let mut pts = vec![start];
     for k in 1..m - 1 {
         let t = k as f64 / (m - 1) as f64;
-        let mid = Point3::from((pa[k].coords + pb[k].coords) / 2.0);
+        let shift = off0 * (1.0 - t) + off1 * t;
+        let mid = middle(k) + shift;
         let near = surface.query(mid);
-        let gap = (pa[k] - pb[k]).norm();
+        let gap = (pa[k] - pb[k]).norm() + shift.norm();
         let q = if near.distance < 0.25 * gap.max(step_mm) {
             near.point
         } else {
             let dir = n0 * (1.0 - t) + n1 * t;
-            // The patch between the neighbours lies within half their spacing of the median.
-            surface
-                .raycast(mid, dir, gap, 1e-6)
-                .or_else(|| surface.raycast(mid, -dir, gap, 1e-6))
-                .map_or(near.point, |c| c.point)
+            // The patch between the neighbours lies within half their spacing of the median,
+            // along the blended normal one way or the other; of what is found, the point nearest
+            // the curve's last keeps the fill on one side of a tube (no jump across it).
+            let last = *pts.last().expect("starts with `start`");
+            [
+                surface.raycast(mid, dir, gap, 1e-6).map(|c| c.point),
+                surface.raycast(mid, -dir, gap, 1e-6).map(|c| c.point),
+                Some(near.point),
+            ]
+            .into_iter()
+            .flatten()
+            .min_by(|a, b| (a - last).norm().total_cmp(&(b - last).norm()))
+            .expect("the nearest point is always there")
+        };
+        // Where the median passes a tube's axis every projection may land across it: then walk
+        // on from the last point as the neighbours (and the shift) advance, in the tangent plane.
+        let last = *pts.last().expect("starts with `start`");
+        let advance =
+            ((pa[k] - pa[k - 1]) + (pb[k] - pb[k - 1])) / 2.0 + (off1 - off0) / (m - 1) as f64;
+        let q = if (q - last).norm() > 3.0 * advance.norm() + step_mm {
+            let n = normal_at(last).normalize();
+            let along = advance - n * n.dot(&advance);
+            surface.query(last + along).point
+        } else {
+            q
         };
         pts.push(q);
     }
     pts.push(end);
-    Generator::new(pts, true, true)
+    // A median that still jumps (across a tube, or to an end it could not reach along the
+    // surface) is no generator: the gap stays open and is reported.
+    let smooth = pts.windows(2).all(|w| {
+        (w[1] - w[0]).norm()
+            <= 3.0 * step_mm.max(1e-9) + 3.0 * (a.length().max(b.length()) / (m - 1) as f64)
+    });
+    Generator::new(pts, true, smooth)
 }
 
 /// Arc parameters of the generators' upper ends, unwrapped so that consecutive ends differ by the
@@ -376,8 +401,8 @@ fn median(
 /// sweep the surface, so their ends go once around the upper loop. Where Eq.1's generators all
 /// converge (a bent tube's run to the inside of the bend), the short way sums to no turn; the
 /// missing turn then belongs to the neighbours with the widest gap between them, which run to
-/// either side of the part.
-fn unwrap_upper_ends(up: &LoopParam, gens: &[Generator], eps: &[f64]) -> Vec<f64> {
+/// either side of the part. Also returns the turn from the last end back round to the first.
+fn unwrap_upper_ends(up: &LoopParam, gens: &[Generator], eps: &[f64]) -> (Vec<f64>, f64) {
     let n = gens.len();
     let u: Vec<f64> = gens.iter().map(|g| up.param(g.end())).collect();
     let mut step: Vec<f64> = (0..n).map(|i| up.wrap(u[(i + 1) % n] - u[i])).collect();
@@ -392,7 +417,8 @@ fn unwrap_upper_ends(up: &LoopParam, gens: &[Generator], eps: &[f64]) -> Vec<f64
     for i in 0..n - 1 {
         ends.push(ends[i] + step[i]);
     }
-    ends
+    // The pair that carries the turn may be the last and the first.
+    (ends, step.iter().sum())
 }
 
 /// A boundary loop as a closed polyline parametrised by arc length.

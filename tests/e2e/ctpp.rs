@@ -224,3 +224,80 @@ fn asymmetric_dome_closing_point() {
     assert!(c.y.abs() < 0.5, "off the symmetry plane: y = {}", c.y);
     assert!(c.x < -5.0, "should lean towards -x: x = {}", c.x);
 }
+
+/// Quarter torus R 100: Eq.1's generators cut from the outside of the bend to the inside (not the
+/// iso-parametric lines), converge there, and leave the outside of the bend uncovered; the gap is
+/// found and filled up to the outer meridian, on the surface. r = 8 fits ±10 % along its
+/// generators, r = 20 does not (lengths 125.7..188.5 mm, ratio > 1.1/0.9), too long on the outside.
+#[test]
+fn quarter_torus_generators_gaps_and_feasibility() {
+    let bend = 100.0;
+    for (r, edge, exact) in [(8.0, 1.0, (144.5, 153.2)), (20.0, 1.5, (125.7, 158.3))] {
+        let pl = plan(
+            &part(
+                Shape::QuarterTorus {
+                    bend_radius_mm: bend,
+                    tube_radius_mm: r,
+                },
+                edge,
+            ),
+            &params(120),
+        )
+        .unwrap();
+        report(&format!("quarter torus r = {r}"), &pl);
+        let traced = pl.generators.iter().filter(|g| !g.filled);
+        let (lo, hi) = planner::plan::range(traced.map(|g| g.length()));
+        eprintln!("  traced generators {lo:.2}..{hi:.2} mm (exact {exact:?})");
+        assert!(
+            (lo - exact.0).abs() < 0.005 * exact.0,
+            "{lo} vs {}",
+            exact.0
+        );
+        assert!(
+            (hi - exact.1).abs() < 0.005 * exact.1,
+            "{hi} vs {}",
+            exact.1
+        );
+        // Not the iso-lines: those run (R − r)·π/2 to (R + r)·π/2.
+        let outer = (bend + r) * std::f64::consts::FRAC_PI_2;
+        assert!(hi < outer - 10.0);
+        // The outside of the bend is filled, up to its meridian.
+        let longest = pl.generators.iter().map(|g| g.length()).fold(0.0, f64::max);
+        assert!(
+            pl.n_filled > 0 && (longest - outer).abs() < 0.01 * outer,
+            "{longest} vs {outer}"
+        );
+        // On the surface (the analytic torus) and the swept layers on the part.
+        let off = |p: &planner::plan::PathPoint| {
+            let p = p.position;
+            let rho = ((p.x + bend).powi(2) + p.z.powi(2)).sqrt() - bend;
+            ((rho * rho + p.y * p.y).sqrt() - r).abs()
+        };
+        let worst = pl.points.iter().map(off).fold(0.0, f64::max);
+        assert!(worst < 0.1, "a path point {worst} mm off the torus");
+        assert!(pl.deviation.min_mm > -0.25 && pl.deviation.max_mm < 0.25);
+        let long: Vec<_> = pl
+            .points
+            .iter()
+            .filter(|q| q.step_mm > 2.2 + 1e-9)
+            .collect();
+        let short = pl.points.iter().filter(|q| q.step_mm < 1.8 - 1e-9).count();
+        eprintln!("  steps above h_max: {}, below h_min: {short}", long.len());
+        assert_eq!(short, 0);
+        if r == 8.0 {
+            assert!(
+                long.is_empty(),
+                "r = 8 fits [1.8, 2.2] along its generators"
+            );
+        } else {
+            assert!(!long.is_empty(), "r = 20 cannot fit [1.8, 2.2]");
+            // Every generator too long starts on the outside of the bend (x > 0 at the bottom:
+            // the bend's centre is at x = −R): the fills, and the traced ones that cut across.
+            assert!(
+                long.iter()
+                    .all(|q| pl.generators[q.generator].start().x > 0.0),
+                "a generator too long starts on the inside of the bend"
+            );
+        }
+    }
+}
