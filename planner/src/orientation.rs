@@ -10,6 +10,9 @@
 
 use nalgebra::Vector3;
 
+/// Shortest chord over which the direction of travel is taken, mm.
+pub const MIN_CHORD_MM: f64 = 1.0;
+
 /// Per path point: tool axis and true deposit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Oriented {
@@ -27,11 +30,22 @@ pub fn orient(
 ) -> Vec<Oriented> {
     let n = points.len();
     let unit = |d: Vector3<f64>| d.try_normalize(1e-9);
+    // The direction of travel over at least a chord: where generators converge (a bent tube's
+    // inside) neighbouring points can be hundredths of a millimetre apart, mostly along the
+    // generators, and their difference says nothing of where the torch goes.
+    let chord = |d: Vector3<f64>| (d.norm() >= MIN_CHORD_MM).then(|| d / d.norm());
     let mut last_t = Vector3::x();
     (0..n)
         .map(|i| {
-            let ahead = (i + 1..n).map(|j| points[j] - points[i]).find_map(unit);
-            let behind = (0..i).rev().map(|j| points[i] - points[j]).find_map(unit);
+            let ahead = (i + 1..n)
+                .map(|j| points[j] - points[i])
+                .find_map(chord)
+                .or_else(|| (i + 1..n).map(|j| points[j] - points[i]).find_map(unit));
+            let behind = (0..i)
+                .rev()
+                .map(|j| points[i] - points[j])
+                .find_map(chord)
+                .or_else(|| (0..i).rev().map(|j| points[i] - points[j]).find_map(unit));
             let t = match (behind, ahead) {
                 (Some(a), Some(b)) => unit(a + b).unwrap_or(b),
                 (None, Some(t)) | (Some(t), None) => t,
