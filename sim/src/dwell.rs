@@ -98,6 +98,29 @@ fn advance(run: &mut WallRun, deps: &[Deposit], from: usize, to: usize, dwell: f
     }
 }
 
+/// `base` cooled for `d` seconds with exactly the steps one `cool(d)` takes (1, 2, 4 … s up to
+/// the longest step, then what is left), carried on from the longest state in `cache` on that
+/// sequence: a search trying longer and longer dwells cools on instead of starting over, and
+/// the dwell it settles on gives the same state as a fresh run with that dwell.
+fn cooled(base: &WallRun, cache: &mut Vec<(f64, WallRun)>, d: f64) -> WallRun {
+    let (mut boundary, mut dt) = (0.0, 1.0f64);
+    while boundary + dt <= d + 1e-9 {
+        boundary += dt;
+        dt = (dt * 2.0).min(base.max_cooling_step());
+    }
+    let (from, mut run) = cache
+        .iter()
+        .filter(|c| c.0 <= boundary)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or_else(|| (0.0, base.clone()), |c| (c.0, c.1.clone()));
+    if boundary > from {
+        run.cool(boundary - from);
+        cache.push((boundary, run.clone()));
+    }
+    run.cool(d - boundary);
+    run
+}
+
 /// Per deposit, the points whose preheat is read during its arc, and itself (its pool).
 fn judged_at(deps: &[Deposit], lead: f64) -> Vec<Vec<usize>> {
     let mut at: Vec<Vec<usize>> = (0..deps.len()).map(|i| vec![i]).collect();
@@ -180,9 +203,10 @@ fn point_dwells(
             x = trial;
             continue;
         };
+        let mut cache = Vec::new();
         let pass = shortest_dwell(s, 5.0, hot0, |d| {
-            let mut t = x.clone();
-            t.deposit(deps, i, d);
+            let mut t = cooled(&x, &mut cache, d);
+            t.deposit(deps, i, 0.0);
             *simulated += 1.0;
             let (r, hot) = risk_at(&t, i);
             (t, r.is_none(), hot)
@@ -522,4 +546,56 @@ pub fn wait_until_cool(
         cursor = end;
     }
     Ok(dwell)
+}
+
+#[cfg(test)]
+mod tests {
+    use thermal::material::Material;
+    use thermal::network::Surroundings;
+    use thermal::wall::{Plate, WallModel, WallRun, WallSettings};
+
+    /// Trials of any order through the cache give the state one `cool(d)` gives, bit for bit.
+    #[test]
+    fn cooling_on_from_the_cache_equals_cooling_once() {
+        let deps = thermal::schedule::helix(0.03, 40, 3, 2e-3, 5e-3, 10e-3, 1700.0);
+        let settings = WallSettings {
+            material: Material::g3si(),
+            surroundings: Surroundings {
+                ambient_k: 293.15,
+                convection_w_m2k: 15.0,
+                emissivity: 0.6,
+                table_w_m2k: 100.0,
+            },
+            plate: Plate {
+                size: [0.1, 0.1, 0.008],
+                centre: [0.0, 0.0],
+                cell: 5e-3,
+                layers: 3,
+            },
+            min_node: 3e-3,
+            deposit_temperature: 1823.15,
+            footprint: 5e-3,
+            lead: 10e-3,
+            hot_threshold: 873.15,
+            max_step: 30.0,
+            snapshot_times: vec![],
+        };
+        let mut run = WallRun::new(
+            WallModel::build(&deps, &settings).unwrap(),
+            &deps,
+            &settings,
+        );
+        for i in 0..60 {
+            run.deposit(&deps, i, 0.0);
+        }
+        let mut cache = Vec::new();
+        for d in [5.0, 21.0, 15.0, 18.0, 70.0, 0.5, 33.3] {
+            let mut once = run.clone();
+            once.cool(d);
+            let on = super::cooled(&run, &mut cache, d);
+            assert_eq!(on.temperatures(), once.temperatures(), "dwell {d}");
+            assert!((on.now - once.now).abs() < 1e-9);
+        }
+        assert!(cache.len() >= 4);
+    }
 }

@@ -360,6 +360,10 @@ pub struct WallRun {
     /// Time now, s; deposits laid so far.
     pub now: f64,
     pub laid: usize,
+    /// The next cooling step, s: it doubles from 1 s while the part cools with the arc off, and
+    /// starts again at 1 s once a deposit is laid, so that cooling continued in several calls
+    /// (a dwell search trying longer and longer dwells) takes the steps one call would.
+    cooling_step: f64,
     underpowered: usize,
     h_deposit: f64,
     h_ambient: f64,
@@ -395,6 +399,7 @@ impl WallRun {
             peak: vec![s.surroundings.ambient_k; n],
             snapshots: Vec::new(),
             next_snapshot: 0,
+            cooling_step: 1.0,
             power: vec![0.0; n],
             grid,
             below: Arc::new(below),
@@ -506,17 +511,24 @@ impl WallRun {
         self.points[i].pool_length = len;
         self.points[i].pool_radius = (3.0 * vol / (2.0 * std::f64::consts::PI)).cbrt();
         self.laid = i + 1;
+        self.cooling_step = 1.0;
+    }
+
+    /// The longest cooling step, s.
+    pub fn max_cooling_step(&self) -> f64 {
+        self.settings.max_step
     }
 
     /// Let the part cool (no source) for `duration`, in steps doubling from one second to the
-    /// settings' longest step (backward Euler is stable at any step; cooling slows as it goes).
+    /// settings' longest step (backward Euler is stable at any step; cooling slows as it goes),
+    /// carried on from where an earlier cooling since the last deposit stopped.
     pub fn cool(&mut self, duration: f64) {
         if duration <= 1e-9 {
             return;
         }
         self.power.iter_mut().for_each(|p| *p = 0.0);
         let end = self.now + duration;
-        let mut dt = 1.0f64.min(duration);
+        let mut dt = self.cooling_step.min(duration);
         while self.now < end - 1e-9 {
             let step = dt.min(end - self.now);
             self.model.network.step(step, &self.power);
@@ -524,6 +536,7 @@ impl WallRun {
             self.observe(step);
             dt = (dt * 2.0).min(self.settings.max_step);
         }
+        self.cooling_step = dt;
     }
 
     fn observe(&mut self, dt: f64) {
