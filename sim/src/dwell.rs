@@ -443,16 +443,18 @@ fn next_dwell(
     }
 }
 
-/// Simulate the build with `dwell_s` and return the first risky point, if any; stops there. A
-/// point's preheat is read upstream of it, so once it is laid it can be judged.
+/// Simulate the first `upto` deposits of the build with `dwell_s` and return the first risky
+/// point, if any; stops there. A point's preheat is read upstream of it, so once it is laid it
+/// can be judged.
 pub fn first_risk(
     s: &Scenario,
     deps: &[Deposit],
     settings: &WallSettings,
     dwell_s: &[f64],
+    upto: usize,
 ) -> Result<Option<(usize, Risk)>, String> {
     let mut run = WallRun::new(WallModel::build(deps, settings)?, deps, settings);
-    for (i, &dwell) in dwell_s.iter().enumerate().take(deps.len()) {
+    for (i, &dwell) in dwell_s.iter().enumerate().take(upto.min(deps.len())) {
         run.deposit(deps, i, dwell);
         if let Some(r) = judge(s, &run.points()[i], run.support(i), 0.0) {
             return Ok(Some((i, r)));
@@ -470,14 +472,27 @@ pub fn dwell_points(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<usize> {
         .collect()
 }
 
-/// The smallest uniform dwell per revolution that keeps every point safe, by bisection over whole
-/// builds (each stopped at its first risky point). `None` if even `max` fails.
+/// The uniform-dwell baseline: the same dwell before every revolution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Uniform {
+    /// The smallest dwell that keeps the points before `until` safe, s; `None` if not even the
+    /// longest does.
+    pub dwell_s: Option<f64>,
+    /// The first deposit of the revolution where the longest dwell before each revolution no
+    /// longer keeps the part safe: from there a revolution's own heat breaks a limit and only
+    /// dwells inside revolutions help (the closing zone of a dome). The number of deposits when
+    /// the policy works throughout.
+    pub until: usize,
+}
+
+/// The smallest uniform dwell per revolution that keeps every point before the policy's limit
+/// safe ([`Uniform::until`]), by bisection over builds stopped at their first risky point.
 pub fn uniform_baseline(
     s: &Scenario,
     pl: &Plan,
     deps: &[Deposit],
     settings: &WallSettings,
-) -> Result<Option<f64>, String> {
+) -> Result<Uniform, String> {
     let at = dwell_points(pl, deps, settings.lead);
     let with = |d: f64| {
         let mut v = vec![0.0; deps.len()];
@@ -487,19 +502,32 @@ pub fn uniform_baseline(
         v
     };
     let max = s.dwell.max_dwell_s;
-    if first_risk(s, deps, settings, &with(max))?.is_some() {
-        return Ok(None);
+    let until = match first_risk(s, deps, settings, &with(max), deps.len())? {
+        None => deps.len(),
+        Some((i, _)) => {
+            let layer = pl.points[i].layer;
+            pl.points.iter().position(|q| q.layer == layer).unwrap_or(i)
+        }
+    };
+    if until == 0 || first_risk(s, deps, settings, &with(max), until)?.is_some() {
+        return Ok(Uniform {
+            dwell_s: None,
+            until,
+        });
     }
     let (mut lo, mut hi) = (0.0, max);
     while hi - lo > (0.02 * hi).max(0.5) {
         let mid = 0.5 * (lo + hi);
-        if first_risk(s, deps, settings, &with(mid))?.is_some() {
+        if first_risk(s, deps, settings, &with(mid), until)?.is_some() {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    Ok(Some(hi))
+    Ok(Uniform {
+        dwell_s: Some(hi),
+        until,
+    })
 }
 
 /// "Wait until the last layer is below the limit": before each revolution's dwell point, wait

@@ -16,6 +16,7 @@
 
 use crate::scenario::Scenario;
 use bead_model::bond::bond_number;
+use planner::plan::Plan;
 use thermal::wall::{PointResult, Support};
 
 /// Why a point is at risk.
@@ -65,4 +66,17 @@ pub fn judge(s: &Scenario, p: &PointResult, support: Support, margin_k: f64) -> 
         return Some(Risk::Bond);
     }
     None
+}
+
+/// Per path point: whether it lies in the closing zone, within `[dwell] closing_zone_mm` of a
+/// closed part's closing point, where revolutions get short enough that the torch heats a
+/// revolution's own substrate (none on an open part).
+pub fn closing_zone(s: &Scenario, pl: &Plan) -> Vec<bool> {
+    pl.points
+        .iter()
+        .map(|q| {
+            pl.closing_point
+                .is_some_and(|c| (q.position - c).norm() < s.dwell.closing_zone_mm)
+        })
+        .collect()
 }

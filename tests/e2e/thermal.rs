@@ -14,7 +14,7 @@ fn simulate(
     let mut lines = layers.lines();
     assert_eq!(
         lines.next(),
-        Some("layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk")
+        Some("layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk,closing_zone")
     );
     (
         t,

@@ -344,7 +344,7 @@ pub struct WallRun {
     settings: Arc<WallSettings>,
     /// Per deposit, the deposit during whose arc its preheat is read (dwell-independent: the
     /// torch is `lead` upstream along the path).
-    probes_at: Arc<Vec<Vec<usize>>>,
+    probes_at: Arc<Vec<Vec<(usize, f64)>>>,
     /// Per deposit: the deposit it is laid on, and the one during whose arc its preheat is read.
     support_of: Arc<Vec<Option<usize>>>,
     read_at: Arc<Vec<Option<usize>>>,
@@ -374,10 +374,11 @@ impl WallRun {
         let n = model.network.len();
         let mut probes_at = vec![Vec::new(); deps.len()];
         let mut points = vec![PointResult::default(); deps.len()];
-        let read_at = read_points(deps, s.lead);
-        for (k, &j) in read_at.iter().enumerate() {
-            match j {
-                Some(j) => probes_at[j].push(k),
+        let reads = read_fractions(deps, s.lead);
+        let read_at: Vec<Option<usize>> = reads.iter().map(|r| r.map(|(j, _)| j)).collect();
+        for (k, &r) in reads.iter().enumerate() {
+            match r {
+                Some((j, f)) => probes_at[j].push((k, f)),
                 // Read before the path starts: the plate as it is, at ambient.
                 None => points[k].preheat = s.surroundings.ambient_k,
             }
@@ -484,6 +485,11 @@ impl WallRun {
             })
             .collect();
         let total: f64 = weights.iter().map(|w| w.1).sum();
+        // Preheats read during this arc: interpolated between its start and its end.
+        let before: Vec<f64> = self.probes_at[i]
+            .iter()
+            .map(|&(k, _)| m.network.t[self.below[k]])
+            .collect();
         if d.arc_time > 0.0 {
             if total > 0.0 {
                 for (k, w) in &weights {
@@ -496,8 +502,9 @@ impl WallRun {
             self.now += d.arc_time;
             self.observe(d.arc_time);
         }
-        for &k in &self.probes_at[i] {
-            self.points[k].preheat = self.model.network.t[self.below[k]];
+        for (&(k, f), t0) in self.probes_at[i].iter().zip(before) {
+            let t1 = self.model.network.t[self.below[k]];
+            self.points[k].preheat = t0 + f * (t1 - t0);
         }
         // The melt pool behind the torch.
         let (mut len, mut vol, mut k) = (0.0, 0.0, node as isize);
@@ -596,19 +603,40 @@ fn segment_share(deps: &[Deposit], i: usize, length: &[f64], node_of: &[usize]) 
     (seg / length[node_of[i]]).min(1.0)
 }
 
-/// Per deposit, the deposit during whose arc the torch is `lead` upstream of it (`None`: before
-/// the path starts).
+/// Per deposit, the deposit during whose arc the torch passes `lead` upstream of it (`None`:
+/// before the path starts).
 pub fn read_points(deps: &[Deposit], lead: f64) -> Vec<Option<usize>> {
+    read_fractions(deps, lead)
+        .into_iter()
+        .map(|r| r.map(|(j, _)| j))
+        .collect()
+}
+
+/// [`read_points`] with the fraction of that deposit's segment (and so of its arc time) at
+/// which the torch is exactly `lead` upstream: the reading is interpolated there, as the
+/// interface defines it, not taken at the arc's end (which would put it up to one point
+/// spacing closer to the arc, by how the spacing happens to fall).
+pub fn read_fractions(deps: &[Deposit], lead: f64) -> Vec<Option<(usize, f64)>> {
     let mut s = vec![0.0; deps.len()];
     for i in 1..deps.len() {
         s[i] = s[i - 1] + dist(deps[i].position, deps[i - 1].position);
     }
     (0..deps.len())
-        .map(|i| (s[i] - lead >= 0.0).then(|| s.partition_point(|&x| x < s[i] - lead).min(i)))
+        .map(|i| {
+            let target = s[i] - lead;
+            (target >= 0.0).then(|| {
+                let j = s.partition_point(|&x| x < target).min(i);
+                let f = if j == 0 {
+                    1.0
+                } else {
+                    ((target - s[j - 1]) / (s[j] - s[j - 1]).max(1e-12)).clamp(0.0, 1.0)
+                };
+                (j, f)
+            })
+        })
         .collect()
 }
 
-/// When the torch is `lead` upstream of each deposit (along the path), s.
 pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
     let mut s = vec![0.0; deps.len()];
     for i in 1..deps.len() {

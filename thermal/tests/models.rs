@@ -90,7 +90,10 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
             100.0 * rel
         );
         if k == 0 || k >= 4 {
-            steady = steady.max(rel.abs());
+            // Within 5 % of the rise, or 2 K where the rise is a few kelvin (revolution 0 reads
+            // the plate, warmed by ~7 K): below what a pyrometer resolves.
+            let tolerance = (0.05 * (vx[k] - 293.15)).max(2.0);
+            steady = steady.max(0.05 * (fe[k] - vx[k]).abs() / tolerance);
         } else {
             early = early.max(rel.abs());
         }

@@ -75,18 +75,39 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
     });
     if baselines {
         let _stage = Stage::start("baselines: uniform dwell, wait until cool");
-        let slots = dwell_points(&pl, &deps, settings.lead).len();
         let uniform = uniform_baseline(s, &pl, &deps, &settings).map_err(fail)?;
+        // Where the uniform policy stops working (a dome's closing zone), both are compared on
+        // the points before.
+        let until = uniform.until;
+        let slots = dwell_points(&pl, &deps, settings.lead)
+            .into_iter()
+            .filter(|&i| i < until)
+            .count();
+        let planned_there: f64 = plan.dwell_s[..until].iter().sum();
         let waits = wait_until_cool(s, &pl, &deps, &settings).map_err(fail)?;
         let wait_total: f64 = waits.iter().sum();
+        let n = deps.len();
+        let wait_risk = first_risk(s, &deps, &settings, &waits, n).map_err(fail)?;
+        let wait_safe_until = wait_risk.map_or(n, |(i, _)| i);
         summary["baselines"] = json!({
             "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(s, &before)},
-            "uniform": uniform.map(|d| json!({"dwell_per_revolution_s": d, "total_dwell_s": d * slots as f64, "dwell_count": slots})),
+            "uniform": {
+                "dwell_per_revolution_s": uniform.dwell_s,
+                "judged_before_point": until,
+                "policy_fails_from_layer": (until < n).then(|| pl.points[until].layer),
+                "total_dwell_s": uniform.dwell_s.map(|d| d * slots as f64),
+                "dwell_count": slots,
+                "planned_dwell_there_s": planned_there,
+                "ratio": uniform.dwell_s.map(|d| planned_there / (d * slots as f64).max(1e-9)),
+            },
             "wait_until_cool": {"total_dwell_s": wait_total, "dwell_count": waits.iter().filter(|&&d| d > 0.0).count(),
-                "safe": first_risk(s, &deps, &settings, &waits).map_err(fail)?.is_none()},
+                "safe": wait_risk.is_none(),
+                "first_risk": wait_risk.map(|(i, r)| json!({"i": i, "layer": pl.points[i].layer, "reason": r.as_str()})),
+                "its_dwell_before_that_s": waits[..wait_safe_until].iter().sum::<f64>(),
+                "planned_dwell_before_that_s": plan.dwell_s[..wait_safe_until].iter().sum::<f64>()},
         });
-        if let Some(d) = uniform {
-            summary["ratio_to_uniform"] = json!(total / (d * slots as f64).max(1e-9));
+        if let Some(d) = uniform.dwell_s {
+            summary["ratio_to_uniform"] = json!(planned_there / (d * slots as f64).max(1e-9));
         }
         summary["ratio_to_wait_until_cool"] = json!(total / wait_total.max(1e-9));
     }

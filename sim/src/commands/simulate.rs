@@ -267,6 +267,17 @@ pub fn write_thermal(
     let (err_lo, err_hi) = planner::plan::range(built.iter().map(|b| b.height_error * 1e3));
     let (so_lo, so_hi) = planner::plan::range(built.iter().map(|b| b.stickout * 1e3));
     let r = &sim.result;
+    let zone = crate::risk::closing_zone(s, pl);
+    // Revolutions with a point at risk, and whether that point is in the closing zone.
+    let mut risky: Vec<(usize, bool)> = Vec::new();
+    for (i, q) in pl.points.iter().enumerate() {
+        if crate::risk::judge(s, &r.points[i], sim.support[i], 0.0).is_some() {
+            match risky.last_mut() {
+                Some(last) if last.0 == q.layer => last.1 |= zone[i],
+                _ => risky.push((q.layer, zone[i])),
+            }
+        }
+    }
     let max_preheat = r
         .points
         .iter()
@@ -281,6 +292,9 @@ pub fn write_thermal(
         "max_preheat_c": max_preheat - C,
         "interpass_max_c": s.dwell.interpass_max_k - C,
         "first_overheat": first_overheat(s, sim),
+        "risky_revolutions": risky.iter().map(|&(layer, _)| layer).collect::<Vec<_>>(),
+        "risk_in_closing_zone": risky.iter().any(|&(_, zone)| zone),
+        "closing_zone_mm": pl.closing_point.map(|_| s.dwell.closing_zone_mm),
         "build_time_s": sim.deposits.last().map_or(0.0, |d| d.time),
         "probe": crate::record::probe(sim).map(|p| json!({"point": p.point, "frame": p.frame, "t_s": p.t_s, "temperature_c": p.temperature_c})),
         "wall_nodes": r.n_wall_nodes,
@@ -296,23 +310,30 @@ pub fn write_thermal(
         "wall_s": sim.wall_s,
     });
     dir.write_json("thermal.json", &json)?;
-    let mut csv =
-        String::from("layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk\n");
+    let mut csv = String::from(
+        "layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk,closing_zone\n",
+    );
     for l in layers(pl, sim, dwell_s) {
         let risk = if l.preheat_max_k > s.dwell.interpass_max_k {
             "interpass"
         } else {
             ""
         };
+        let in_zone = pl
+            .points
+            .iter()
+            .zip(&zone)
+            .any(|(q, &z)| z && q.layer == l.layer);
         let _ = writeln!(
             csv,
-            "{},{:.3},{:.3},{:.2},{:.2},{:.3},{risk}",
+            "{},{:.3},{:.3},{:.2},{:.2},{:.3},{risk},{}",
             l.layer,
             l.t_start_s,
             l.duration_s,
             l.preheat_max_k - C,
             l.preheat_mean_k - C,
-            l.dwell_s
+            l.dwell_s,
+            u8::from(in_zone)
         );
     }
     dir.write("layers.csv", csv.as_bytes())?;

@@ -122,6 +122,8 @@ pub struct DwellSettings {
     pub max_dwell_s: f64,
     pub margin_k: f64,
     pub count_weight_s: f64,
+    /// Radius of the closing zone around a closing point, mm.
+    pub closing_zone_mm: f64,
 }
 
 /// Bead-model settings beyond the process: risk threshold and the hot-metal law.
@@ -528,6 +530,9 @@ impl Scenario {
             86_400.0,
             "between 0 and 86400",
         )?;
+        if let Some(z) = d.closing_zone_mm {
+            c.positive("dwell", "closing_zone_mm", z, 10_000.0)?;
+        }
         let on = |n: &str| d.criteria.iter().any(|x| x == n);
         let dwell = DwellSettings {
             interpass_max_k: raw.dwell.interpass_max_c + KELVIN,
@@ -538,6 +543,7 @@ impl Scenario {
             max_dwell_s: d.max_dwell_s,
             margin_k: d.margin_c,
             count_weight_s: d.count_weight_s,
+            closing_zone_mm: d.closing_zone_mm.unwrap_or(3.0 * raw.process.bead_width_mm),
         };
         let pl = &raw.planner;
         if !(8..=100_000).contains(&pl.n_points) {

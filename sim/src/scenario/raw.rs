@@ -208,6 +208,10 @@ pub struct RawDwell {
     pub margin_c: f64,
     /// The cost of one arc stop in seconds of dwell, when reporting the trade-off.
     pub count_weight_s: f64,
+    /// Path points this close to a closed part's closing point are in its closing zone; absent:
+    /// three bead widths.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub closing_zone_mm: Option<f64>,
 }
 
 impl Default for RawDwell {
@@ -225,6 +229,7 @@ impl Default for RawDwell {
             max_dwell_s: 600.0,
             margin_c: 2.0,
             count_weight_s: 0.0,
+            closing_zone_mm: None,
         }
     }
 }
