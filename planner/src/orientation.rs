@@ -3,10 +3,12 @@
 //!
 //! At each path point the build direction is b = n × t, with n the surface normal and t the unit
 //! direction of travel; it lies in the tangent plane, across the bead. t is the discrete
-//! Frenet tangent (from the previous to the next point, the paper's Fig. 22 frame), which at the
-//! spiral's seam averages the climb to the next revolution with the level run before it. The deposit d laid
-//! along the generator is projected on b: H = d·cos θ, θ the angle between b and the generator.
-//! The tool axis (from the deposit to the torch) is b.
+//! Frenet tangent (from the previous to the next point of the same revolution, the paper's
+//! Fig. 22 frame). At the spiral's seam the path climbs to the next revolution over one generator
+//! spacing; a revolution's last and first points take the direction of their own revolution's
+//! run, so the climb, which near a flat top is a whole layer, does not tilt the bead on either
+//! side of it. The deposit d laid along the generator is projected on b: H = d·cos θ, θ the angle
+//! between b and the generator. The tool axis (from the deposit to the torch) is b.
 
 use nalgebra::Vector3;
 
@@ -24,6 +26,7 @@ pub struct Oriented {
 /// `step[i]` the deposit d along it, at each of the path `points`.
 pub fn orient(
     points: &[nalgebra::Point3<f64>],
+    layers: &[usize],
     normals: &[Vector3<f64>],
     along: &[Vector3<f64>],
     step: &[f64],
@@ -37,15 +40,29 @@ pub fn orient(
     let mut last_t = Vector3::x();
     (0..n)
         .map(|i| {
+            let same = |j: &usize| layers[*j] == layers[i];
             let ahead = (i + 1..n)
+                .take_while(same)
                 .map(|j| points[j] - points[i])
                 .find_map(chord)
-                .or_else(|| (i + 1..n).map(|j| points[j] - points[i]).find_map(unit));
+                .or_else(|| {
+                    (i + 1..n)
+                        .take_while(same)
+                        .map(|j| points[j] - points[i])
+                        .find_map(unit)
+                });
             let behind = (0..i)
                 .rev()
+                .take_while(same)
                 .map(|j| points[i] - points[j])
                 .find_map(chord)
-                .or_else(|| (0..i).rev().map(|j| points[i] - points[j]).find_map(unit));
+                .or_else(|| {
+                    (0..i)
+                        .rev()
+                        .take_while(same)
+                        .map(|j| points[i] - points[j])
+                        .find_map(unit)
+                });
             let t = match (behind, ahead) {
                 (Some(a), Some(b)) => unit(a + b).unwrap_or(b),
                 (None, Some(t)) | (Some(t), None) => t,

@@ -216,7 +216,8 @@ pub fn plan(part: &Part, p: &PlanParams) -> Result<Plan, PlanError> {
     let normals: Vec<Vector3<f64>> = located.iter().map(|l| l.1).collect();
     let along: Vec<Vector3<f64>> = located.iter().map(|l| l.2).collect();
     let step: Vec<f64> = sp.points.iter().map(|q| q.step_mm).collect();
-    let oriented = orient(&positions, &normals, &along, &step);
+    let layers: Vec<usize> = sp.points.iter().map(|q| q.layer).collect();
+    let oriented = orient(&positions, &layers, &normals, &along, &step);
     let points: Vec<PathPoint> = sp
         .points
         .iter()
