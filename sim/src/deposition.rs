@@ -67,20 +67,7 @@ pub fn material(s: &Scenario) -> Material {
 
 pub fn wall_settings(s: &Scenario, deposits: &[Deposit], snapshot_times: Vec<f64>) -> WallSettings {
     let t = &s.thermal;
-    // The plate is centred under the first revolution.
-    let first: Vec<&Deposit> = deposits.iter().filter(|d| d.support.is_none()).collect();
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for d in &first {
-        for k in 0..2 {
-            lo[k] = lo[k].min(d.position[k]);
-            hi[k] = hi[k].max(d.position[k]);
-        }
-    }
-    let centre = if first.is_empty() {
-        [0.0, 0.0]
-    } else {
-        [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
-    };
+    let centre = plate_centre(deposits);
     WallSettings {
         material: material(s),
         surroundings: Surroundings {
@@ -102,5 +89,22 @@ pub fn wall_settings(s: &Scenario, deposits: &[Deposit], snapshot_times: Vec<f64
         hot_threshold: t.hot_threshold_k,
         max_step: MAX_COOLING_STEP_S,
         snapshot_times,
+    }
+}
+
+/// The plate is centred under the first revolution (the deposits laid on it), m.
+pub fn plate_centre(deposits: &[Deposit]) -> [f64; 2] {
+    let first: Vec<&Deposit> = deposits.iter().filter(|d| d.support.is_none()).collect();
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for d in &first {
+        for k in 0..2 {
+            lo[k] = lo[k].min(d.position[k]);
+            hi[k] = hi[k].max(d.position[k]);
+        }
+    }
+    if first.is_empty() {
+        [0.0, 0.0]
+    } else {
+        [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
     }
 }

@@ -148,7 +148,7 @@ impl Scene {
             .collect();
         let frames = frames(sim);
         let probe = probe(sim);
-        let centre = plate_centre(sim);
+        let centre = crate::deposition::plate_centre(&sim.deposits).map(|c| c * 1e3);
         Scene {
             title: r.title.to_string(),
             scenario: s.to_json(),
@@ -245,28 +245,6 @@ pub fn probe(sim: &Simulation) -> Option<Probe> {
         t_s: snap.time,
         temperature_c: snap.temperature[sim.result.node_of_deposit[point]] - C,
     })
-}
-
-fn plate_centre(sim: &Simulation) -> [f64; 2] {
-    let first: Vec<_> = sim
-        .deposits
-        .iter()
-        .filter(|d| d.support.is_none())
-        .collect();
-    if first.is_empty() {
-        return [0.0, 0.0];
-    }
-    let (lo, hi) = first.iter().fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(mut lo, mut hi), d| {
-            for k in 0..2 {
-                lo[k] = lo[k].min(d.position[k]);
-                hi[k] = hi[k].max(d.position[k]);
-            }
-            (lo, hi)
-        },
-    );
-    [(lo[0] + hi[0]) * 500.0, (lo[1] + hi[1]) * 500.0]
 }
 
 /// Overheating found, dwells inserted (each an arc stop and restart), nozzle collisions.
