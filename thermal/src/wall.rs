@@ -617,10 +617,7 @@ pub fn read_points(deps: &[Deposit], lead: f64) -> Vec<Option<usize>> {
 /// interface defines it, not taken at the arc's end (which would put it up to one point
 /// spacing closer to the arc, by how the spacing happens to fall).
 pub fn read_fractions(deps: &[Deposit], lead: f64) -> Vec<Option<(usize, f64)>> {
-    let mut s = vec![0.0; deps.len()];
-    for i in 1..deps.len() {
-        s[i] = s[i - 1] + dist(deps[i].position, deps[i - 1].position);
-    }
+    let s = arc_lengths(deps);
     (0..deps.len())
         .map(|i| {
             let target = s[i] - lead;
@@ -637,11 +634,17 @@ pub fn read_fractions(deps: &[Deposit], lead: f64) -> Vec<Option<(usize, f64)>> 
         .collect()
 }
 
-pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
+/// Arc length of the path at each deposit, m.
+fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
     let mut s = vec![0.0; deps.len()];
     for i in 1..deps.len() {
         s[i] = s[i - 1] + dist(deps[i].position, deps[i - 1].position);
     }
+    s
+}
+
+pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
+    let s = arc_lengths(deps);
     (0..deps.len())
         .map(|i| {
             let target = s[i] - lead;

@@ -310,6 +310,10 @@ pub fn write_thermal(
         "wall_s": sim.wall_s,
     });
     dir.write_json("thermal.json", &json)?;
+    let mut zone_layers = vec![false; pl.points.last().map_or(0, |q| q.layer + 1)];
+    for (q, &z) in pl.points.iter().zip(&zone) {
+        zone_layers[q.layer] |= z;
+    }
     let mut csv = String::from(
         "layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk,closing_zone\n",
     );
@@ -319,11 +323,6 @@ pub fn write_thermal(
         } else {
             ""
         };
-        let in_zone = pl
-            .points
-            .iter()
-            .zip(&zone)
-            .any(|(q, &z)| z && q.layer == l.layer);
         let _ = writeln!(
             csv,
             "{},{:.3},{:.3},{:.2},{:.2},{:.3},{risk},{}",
@@ -333,7 +332,7 @@ pub fn write_thermal(
             l.preheat_max_k - C,
             l.preheat_mean_k - C,
             l.dwell_s,
-            u8::from(in_zone)
+            u8::from(zone_layers[l.layer])
         );
     }
     dir.write("layers.csv", csv.as_bytes())?;

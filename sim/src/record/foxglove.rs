@@ -66,7 +66,9 @@ fn colour(r: f64, g: f64, b: f64, a: f64) -> Value {
     json!({"r": r, "g": g, "b": b, "a": a})
 }
 
-const IDENTITY_POSE: fn() -> Value = || json!({"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}});
+fn identity_pose() -> Value {
+    json!({"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}})
+}
 
 /// A scene entity with every primitive list present (Foxglove expects them all).
 fn entity(t_s: f64, frame: &str, id: &str, prims: &[(&str, Value)]) -> Value {
@@ -84,7 +86,7 @@ fn entity(t_s: f64, frame: &str, id: &str, prims: &[(&str, Value)]) -> Value {
 
 fn line_strip(points: impl Iterator<Item = [f64; 3]>, thickness_mm: f64, c: Value) -> Value {
     json!({
-        "type": 0, "pose": IDENTITY_POSE(), "thickness": thickness_mm * M, "scale_invariant": false,
+        "type": 0, "pose": identity_pose(), "thickness": thickness_mm * M, "scale_invariant": false,
         "points": points.map(vec3).collect::<Vec<_>>(), "color": c, "colors": [], "indices": [],
     })
 }
@@ -181,7 +183,7 @@ impl Sink for McapSink {
 
         let part = &scene.part;
         let tri = json!({
-            "pose": IDENTITY_POSE(),
+            "pose": identity_pose(),
             "points": part.faces.iter().flatten().map(|&v| {
                 let p = part.positions[v as usize];
                 vec3([p.x, p.y, p.z])
@@ -281,7 +283,7 @@ impl Sink for McapSink {
                     .map(|(k, n)| json!({"name": n, "offset": 4 * k, "type": 7}))
                     .collect();
                 let cloud = json!({
-                    "timestamp": stamp(t), "frame_id": "world", "pose": IDENTITY_POSE(),
+                    "timestamp": stamp(t), "frame_id": "world", "pose": identity_pose(),
                     "point_stride": 16, "fields": fields, "data": base64(&data),
                 });
                 self.send("/wall/temperature", t, &cloud)?;

@@ -85,8 +85,7 @@ pub fn sinks(s: &Scenario) -> Vec<Box<dyn Sink>> {
 }
 
 /// Feed every sink the scene and then every moment in time order, from this one thread.
-pub fn record(scene: &Scene, sinks: Vec<Box<dyn Sink>>, dir: &mut RunDir) -> Result<()> {
-    let mut sinks = sinks;
+pub fn record(scene: &Scene, mut sinks: Vec<Box<dyn Sink>>, dir: &mut RunDir) -> Result<()> {
     if sinks.is_empty() {
         return Ok(());
     }
