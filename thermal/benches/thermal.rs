@@ -53,11 +53,10 @@ fn main() {
             m.lay_all(&deps);
             let dt = m.stable_step();
             let steps = 400;
-            let zero: Vec<f32> = Vec::new();
-            m.step(dt, &zero);
+            m.step(dt, &[]);
             let t = Instant::now();
             for _ in 0..steps {
-                m.step(dt, &zero);
+                m.step(dt, &[]);
             }
             let secs = t.elapsed().as_secs_f64();
             println!(

@@ -75,12 +75,10 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         vox.balance_error,
         wall.balance_error
     );
-    // Compare the rise above ambient: that is what the models compute. Revolution 0 reads the
-    // plate; from revolution 4 the wall stands on its own metal. Revolutions 1–3 read the first
-    // beads, which sit on the plate through one conductance in the thin-wall model and through a
-    // resolved 3-D contact in the voxel model: there the thin wall runs up to a fifth cooler.
-    let mut steady = 0.0f64;
-    let mut early = 0.0f64;
+    // Compare the rise above ambient: that is what the models compute. Every revolution within
+    // 5 % of the rise, or 2 K where the rise is a few kelvin (revolution 0 reads the plate,
+    // warmed by ~7 K): below what a pyrometer resolves.
+    let mut worst = 0.0f64;
     for k in 0..layers {
         let rel = (fe[k] - vx[k]) / (vx[k] - 293.15);
         eprintln!(
@@ -89,26 +87,13 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
             vx[k] - 273.15,
             100.0 * rel
         );
-        if k == 0 || k >= 4 {
-            // Within 5 % of the rise, or 2 K where the rise is a few kelvin (revolution 0 reads
-            // the plate, warmed by ~7 K): below what a pyrometer resolves.
-            let tolerance = (0.05 * (vx[k] - 293.15)).max(2.0);
-            steady = steady.max(0.05 * (fe[k] - vx[k]).abs() / tolerance);
-        } else {
-            early = early.max(rel.abs());
-        }
+        let tolerance = (0.05 * (vx[k] - 293.15)).max(2.0);
+        worst = worst.max((fe[k] - vx[k]).abs() / tolerance);
     }
     assert!(
         vox.balance_error.abs() < 0.01,
         "voxel energy balance {}",
         vox.balance_error
     );
-    assert!(
-        steady < 0.05,
-        "models differ by {steady} on the plate and from revolution 4"
-    );
-    assert!(
-        early < 0.25,
-        "models differ by {early} over revolutions 1-3"
-    );
+    assert!(worst < 1.0, "models differ by {worst} times the tolerance");
 }

@@ -160,7 +160,7 @@ pub struct RawThermal {
     pub node_mm: f64,
     /// Temperature of the metal as it arrives.
     pub deposit_c: f64,
-    /// Radius of the torch footprint; absent: the bead width.
+    /// Length of bead behind the torch that the arc heats; absent: the bead width.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub footprint_mm: Option<f64>,
     /// Threshold of the per-point time-above count.
