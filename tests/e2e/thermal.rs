@@ -109,3 +109,31 @@ fn closed_dome_preheat_rises_towards_the_closing_point() {
         "the run must say the limit is exceeded"
     );
 }
+
+/// `model = "voxel"` through the command: the same cylinder as the thin wall, 6 mm bead on
+/// 2 mm voxels, and the mean preheat of every revolution within 5 % of the rise (2 K where the
+/// rise is a few kelvin), as the thermal crate's own comparison asks.
+#[test]
+fn voxel_model_through_the_command_agrees_with_the_thin_wall() {
+    let part = "[part]\nshape = \"cylinder\"\nradius_mm = 30.0\nheight_mm = 24.0\nedge_mm = 2.0\n[process]\nbead_width_mm = 6.0\n[thermal]\nplate_mm = [100.0, 100.0, 10.0]\n";
+    let (fe, fe_layers, _) = simulate("thermal_fe", part);
+    let (vx, vx_layers, _) = simulate(
+        "thermal_voxel",
+        &part.replace(
+            "[thermal]\n",
+            "[thermal]\nmodel = \"voxel\"\nvoxel_mm = 2.0\n",
+        ),
+    );
+    assert_eq!(
+        (fe["model"].as_str(), vx["model"].as_str()),
+        (Some("fe"), Some("voxel"))
+    );
+    assert_eq!(fe_layers.len(), vx_layers.len());
+    assert!(vx["energy_balance_error"].as_f64().unwrap().abs() < 0.01);
+    for (k, (a, b)) in fe_layers.iter().zip(&vx_layers).enumerate() {
+        let (a, b): (f64, f64) = (a[4].parse().unwrap(), b[4].parse().unwrap());
+        eprintln!("revolution {k}: mean preheat thin wall {a:.1} °C, voxel {b:.1} °C");
+        let tolerance = (0.05 * (b - 20.0)).max(2.0);
+        assert!((a - b).abs() <= tolerance, "revolution {k}: {a} vs {b}");
+    }
+}

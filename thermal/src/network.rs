@@ -68,6 +68,8 @@ pub struct Network {
     /// Symmetric adjacency (CSR): neighbour and geometric factor area/length (m).
     start: Arc<Vec<u32>>,
     adj: Arc<Vec<(u32, f64)>>,
+    /// The neighbours of `adj` alone: what the solver streams.
+    column: Arc<Vec<u32>>,
     pub ledger: Ledger,
     /// Solver statistics: steps and CG iterations.
     pub steps: usize,
@@ -88,9 +90,13 @@ struct Scratch {
     p: Vec<f64>,
     q: Vec<f64>,
     cond: Vec<f64>,
+    /// 1 / diag: the Jacobi preconditioner as a product.
+    inv_diag: Vec<f64>,
     /// Conductance of each adjacency entry this step (0 to inactive neighbours).
     edge_g: Vec<f64>,
-    active_list: Vec<u32>,
+    /// The active nodes as runs of consecutive indices [start, end): the loops over them are
+    /// plain slices the compiler vectorises.
+    runs: Vec<(usize, usize)>,
     last_t: Vec<f64>,
     last_dt: f64,
 }
@@ -137,6 +143,7 @@ impl Network {
             exposed,
             contact: Arc::new(contact),
             start: Arc::new(count),
+            column: Arc::new(adj.iter().map(|e| e.0).collect()),
             adj: Arc::new(adj),
             ledger: Ledger::default(),
             steps: 0,
@@ -193,9 +200,14 @@ impl Network {
         let mut ws = std::mem::take(&mut self.scratch);
         ws.resize(n, self.adj.len());
         // Active nodes only: switched-off ones are outside the system altogether.
-        ws.active_list.clear();
-        ws.active_list
-            .extend((0..n as u32).filter(|&i| self.active[i as usize]));
+        ws.runs.clear();
+        for (i, &on) in self.active.iter().enumerate() {
+            match ws.runs.last_mut() {
+                Some(run) if on && run.1 == i => run.1 = i + 1,
+                _ if on => ws.runs.push((i, i + 1)),
+                _ => {}
+            }
+        }
         let sur = self.surroundings;
         let (mat, t, active, mass, exposed, contact) = (
             &self.material,
@@ -207,11 +219,10 @@ impl Network {
         );
         // Lagged coefficients: conductivity per node, conductance per edge, loss coefficient
         // (convection, radiation, table), then the backward-Euler diagonal and right-hand side.
-        for &i in &ws.active_list {
-            ws.cond[i as usize] = mat.conductivity(t[i as usize]);
+        for i in nodes(&ws.runs) {
+            ws.cond[i] = mat.conductivity(t[i]);
         }
-        for &i in &ws.active_list {
-            let i = i as usize;
+        for i in nodes(&ws.runs) {
             let (a, b) = (self.start[i] as usize, self.start[i + 1] as usize);
             let mut g_sum = 0.0;
             for e in a..b {
@@ -235,19 +246,17 @@ impl Network {
         } else {
             0.0
         };
-        for &i in &ws.active_list {
-            let i = i as usize;
+        for i in nodes(&ws.runs) {
             ws.x[i] = t[i] + trend * (t[i] - ws.last_t[i]);
         }
-        self.iterations += cg(&self.start, &self.adj, &mut ws);
+        self.iterations += cg(&self.start, &self.column, &mut ws);
         // Conservative update from the solved temperatures.
         let mut sums = [0.0; 4];
-        for &i in &ws.active_list {
-            let i = i as usize;
+        for i in nodes(&ws.runs) {
             let (a, b) = (self.start[i] as usize, self.start[i + 1] as usize);
             let mut flux = power[i];
             for e in a..b {
-                flux += ws.edge_g[e] * (ws.x[self.adj[e].0 as usize] - ws.x[i]);
+                flux += ws.edge_g[e] * (ws.x[self.column[e] as usize] - ws.x[i]);
             }
             let dta = ws.x[i] - sur.ambient_k;
             let conv = sur.convection_w_m2k * exposed[i] * dta;
@@ -260,8 +269,7 @@ impl Network {
             sums[2] += rad;
             sums[3] += table;
         }
-        for &i in &ws.active_list {
-            let i = i as usize;
+        for i in nodes(&ws.runs) {
             self.t[i] = self.material.temperature(self.h[i]);
         }
         ws.last_dt = dt;
@@ -295,6 +303,7 @@ impl Scratch {
             &mut self.p,
             &mut self.q,
             &mut self.cond,
+            &mut self.inv_diag,
             &mut self.last_t,
         ] {
             v.resize(n, 0.0);
@@ -303,14 +312,37 @@ impl Scratch {
     }
 }
 
+/// The active node indices, run by run.
+fn nodes(runs: &[(usize, usize)]) -> impl Iterator<Item = usize> + '_ {
+    runs.iter().flat_map(|&(a, b)| a..b)
+}
+
+/// Σ a_i·b_i over the runs in four interleaved partial sums: no chain of dependent additions,
+/// and the same order whatever the thread (deterministic).
+fn dot(runs: &[(usize, usize)], a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 4];
+    for &(s, e) in runs {
+        let (a, b) = (&a[s..e], &b[s..e]);
+        let (mut ca, mut cb) = (a.chunks_exact(4), b.chunks_exact(4));
+        for (x, y) in (&mut ca).zip(&mut cb) {
+            for k in 0..4 {
+                acc[k] += x[k] * y[k];
+            }
+        }
+        for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+            acc[0] += x * y;
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
 /// y = A p on the active nodes: diagonal minus the edge conductances.
-fn apply(start: &[u32], adj: &[(u32, f64)], ws: &mut Scratch) {
+fn apply(start: &[u32], column: &[u32], ws: &mut Scratch) {
     let (edge_g, diag, p, q) = (&ws.edge_g, &ws.diag, &ws.p, &mut ws.q);
-    for &i in &ws.active_list {
-        let i = i as usize;
+    for i in nodes(&ws.runs) {
         let mut v = diag[i] * p[i];
         for e in start[i] as usize..start[i + 1] as usize {
-            v -= edge_g[e] * p[adj[e].0 as usize];
+            v -= edge_g[e] * p[column[e] as usize];
         }
         q[i] = v;
     }
@@ -318,49 +350,72 @@ fn apply(start: &[u32], adj: &[(u32, f64)], ws: &mut Scratch) {
 
 /// Jacobi-preconditioned conjugate gradients on the active nodes, from the workspace's x.
 /// Stops when the Jacobi correction r_i/d_i, a temperature, is below `CG_TOLERANCE_K`
-/// everywhere: scale-free whatever the node masses. Sums run in node order (deterministic).
-fn cg(start: &[u32], adj: &[(u32, f64)], ws: &mut Scratch) -> usize {
+/// everywhere: scale-free whatever the node masses.
+fn cg(start: &[u32], column: &[u32], ws: &mut Scratch) -> usize {
     std::mem::swap(&mut ws.p, &mut ws.x);
-    apply(start, adj, ws);
+    apply(start, column, ws);
     std::mem::swap(&mut ws.p, &mut ws.x);
-    let mut rz = 0.0;
-    let mut worst = 0.0f64;
-    for &i in &ws.active_list {
-        let i = i as usize;
-        ws.r[i] = ws.rhs[i] - ws.q[i];
-        ws.z[i] = ws.r[i] / ws.diag[i];
-        ws.p[i] = ws.z[i];
-        rz += ws.r[i] * ws.z[i];
-        worst = worst.max(ws.z[i].abs());
+    for &(a, b) in &ws.runs {
+        ws.inv_diag[a..b]
+            .iter_mut()
+            .zip(&ws.diag[a..b])
+            .for_each(|(v, d)| *v = 1.0 / d);
+        let (r, z, p) = (&mut ws.r[a..b], &mut ws.z[a..b], &mut ws.p[a..b]);
+        let (rhs, q, inv) = (&ws.rhs[a..b], &ws.q[a..b], &ws.inv_diag[a..b]);
+        for ((((r, z), p), (rhs, q)), inv) in
+            r.iter_mut().zip(z).zip(p).zip(rhs.iter().zip(q)).zip(inv)
+        {
+            *r = rhs - q;
+            *z = *r * inv;
+            *p = *z;
+        }
     }
+    let mut rz = dot(&ws.runs, &ws.r, &ws.z);
+    let mut worst = largest(&ws.runs, &ws.z);
     let mut it = 0;
     while it < 1000 && worst > CG_TOLERANCE_K {
-        apply(start, adj, ws);
-        let pq: f64 = ws
-            .active_list
-            .iter()
-            .map(|&i| ws.p[i as usize] * ws.q[i as usize])
-            .sum();
-        let alpha = rz / pq;
-        let mut rz_new = 0.0;
-        worst = 0.0;
-        for &i in &ws.active_list {
-            let i = i as usize;
-            ws.x[i] += alpha * ws.p[i];
-            ws.r[i] -= alpha * ws.q[i];
-            ws.z[i] = ws.r[i] / ws.diag[i];
-            rz_new += ws.r[i] * ws.z[i];
-            worst = worst.max(ws.z[i].abs());
+        apply(start, column, ws);
+        let alpha = rz / dot(&ws.runs, &ws.p, &ws.q);
+        for &(a, b) in &ws.runs {
+            let (x, r, z) = (&mut ws.x[a..b], &mut ws.r[a..b], &mut ws.z[a..b]);
+            let (p, q, inv) = (&ws.p[a..b], &ws.q[a..b], &ws.inv_diag[a..b]);
+            for (((x, r), z), ((p, q), inv)) in
+                x.iter_mut().zip(r).zip(z).zip(p.iter().zip(q).zip(inv))
+            {
+                *x += alpha * p;
+                *r -= alpha * q;
+                *z = *r * inv;
+            }
         }
+        let rz_new = dot(&ws.runs, &ws.r, &ws.z);
+        worst = largest(&ws.runs, &ws.z);
         let beta = rz_new / rz;
         rz = rz_new;
-        for &i in &ws.active_list {
-            let i = i as usize;
-            ws.p[i] = ws.z[i] + beta * ws.p[i];
+        for &(a, b) in &ws.runs {
+            for (p, z) in ws.p[a..b].iter_mut().zip(&ws.z[a..b]) {
+                *p = z + beta * *p;
+            }
         }
         it += 1;
     }
     it
+}
+
+/// max |v_i| over the runs.
+fn largest(runs: &[(usize, usize)], v: &[f64]) -> f64 {
+    let mut m = [0.0f64; 4];
+    for &(a, b) in runs {
+        let mut c = v[a..b].chunks_exact(4);
+        for x in &mut c {
+            for k in 0..4 {
+                m[k] = m[k].max(x[k].abs());
+            }
+        }
+        for x in c.remainder() {
+            m[0] = m[0].max(x.abs());
+        }
+    }
+    m[0].max(m[1]).max(m[2].max(m[3]))
 }
 
 /// Conductance of a pair: harmonic mean of the two conductivities times area/length.
