@@ -52,7 +52,7 @@ fn main() {
             let mut m = VoxelModel::new(&deps, &vs).unwrap();
             m.lay_all(&deps);
             let dt = m.stable_step();
-            let steps = 400;
+            let steps = 4000;
             m.step(dt, &[]);
             let t = Instant::now();
             for _ in 0..steps {

@@ -126,7 +126,7 @@ impl Material {
     /// The first table index whose h is not below `h` (`partition_point(|x| x < h)`), from the
     /// bucket's start.
     fn first_not_below(&self, h: f64) -> usize {
-        if !(h > self.h[0]) {
+        if h.is_nan() || h <= self.h[0] {
             return 0;
         }
         let b = (((h - self.h[0]) / self.bucket) as usize).min(self.start.len() - 1);

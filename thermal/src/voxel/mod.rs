@@ -1,10 +1,11 @@
 //! The voxel model: 3-D finite differences on a uniform grid, the reference for local detail and
 //! for checking the thin-wall model. Only active voxels (deposited metal and the plate) are
 //! stored, each with its six neighbours; a step visits the active set alone. Explicit in time at
-//! the stability limit, f32 state, enthalpy update (latent heat included), rayon over fixed chunks
-//! of the active set (the same arithmetic on one thread or two). The arc's heat is a Goldak double
-//! ellipsoid (Goldak, Chakravarti, Bibby 1984) scaled so that its discrete sum is exactly the
-//! heat of the segment.
+//! the stability limit, f32 state, enthalpy update (latent heat included) with conduction on the
+//! Kirchhoff potential (`kernel`), rayon over fixed chunks of the active set (the same arithmetic
+//! on one thread or two). Beads settle on what they lie on (`settle`). The arc's heat is a
+//! Goldak double ellipsoid (Goldak, Chakravarti, Bibby 1984) scaled so that its discrete sum is
+//! exactly the heat of the segment.
 
 mod kernel;
 
@@ -383,7 +384,7 @@ impl VoxelModel {
     }
 
     pub fn active(&self) -> usize {
-        self.t.len()
+        self.h.len()
     }
 
     /// The active voxel whose cell holds point `p` (m), if any.
@@ -514,8 +515,8 @@ impl VoxelModel {
         self.steps += 1;
     }
 
-    /// Goldak source of `heat` joules over the arc time of deposit `d` (which follows the point
-    /// `prev`), on the active voxels around it.
+    /// Goldak source of `heat` joules over the arc time of deposit i, on the active voxels
+    /// around the top of its settled metal, oriented along its segment.
     fn source(&self, deps: &[Deposit], i: usize, heat: f64, out: &mut Vec<(u32, f32)>) {
         out.clear();
         let d = &deps[i];
@@ -621,7 +622,7 @@ impl VoxelModel {
             } else {
                 0.0
             },
-            voxels: self.t.len(),
+            voxels: self.h.len(),
             steps: self.steps,
             updates: self.updates,
         }
