@@ -117,7 +117,7 @@ fn closed_dome_preheat_rises_towards_the_closing_point() {
 fn voxel_model_through_the_command_agrees_with_the_thin_wall() {
     let part = "[part]\nshape = \"cylinder\"\nradius_mm = 30.0\nheight_mm = 24.0\nedge_mm = 2.0\n[process]\nbead_width_mm = 6.0\n[thermal]\nplate_mm = [100.0, 100.0, 10.0]\n";
     let (fe, fe_layers, _) = simulate("thermal_fe", part);
-    let (vx, vx_layers, _) = simulate(
+    let (vx, vx_layers, vx_dir) = simulate(
         "thermal_voxel",
         &part.replace(
             "[thermal]\n",
@@ -135,5 +135,19 @@ fn voxel_model_through_the_command_agrees_with_the_thin_wall() {
         eprintln!("revolution {k}: mean preheat thin wall {a:.1} °C, voxel {b:.1} °C");
         let tolerance = (0.05 * (b - 20.0)).max(2.0);
         assert!((a - b).abs() <= tolerance, "revolution {k}: {a} vs {b}");
+    }
+    // The voxel run fills the per-point columns the thin wall fills: molten metal arrives, so
+    // every point peaks above the solidus (1467 °C) and has a pool behind the torch.
+    let path = std::fs::read_to_string(vx_dir.join("path.csv")).unwrap();
+    let mut lines = path.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    for l in lines {
+        let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+        assert!(v[col("peak_c")] > 1467.0, "{l}");
+        assert!(
+            v[col("pool_length_mm")].is_finite() && v[col("time_above_s")] > 0.0,
+            "{l}"
+        );
     }
 }

@@ -41,6 +41,7 @@ fn main() {
         size: 2e-3,
         deposit_temperature: 1823.15,
         lead: 10e-3,
+        hot_threshold: 873.15,
         courant: 0.9,
     };
     for threads in [1, 2] {

@@ -4,7 +4,7 @@ use thermal::material::Material;
 use thermal::network::Surroundings;
 use thermal::schedule::helix;
 use thermal::voxel::{VoxelModel, VoxelSettings};
-use thermal::wall::{Plate, WallModel, WallSettings};
+use thermal::wall::{Plate, PointResult, WallModel, WallSettings};
 
 fn surroundings() -> Surroundings {
     Surroundings {
@@ -57,6 +57,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         size: 2e-3,
         deposit_temperature: 1823.15,
         lead: 10e-3,
+        hot_threshold: 873.15,
         courant: 0.9,
     };
     let t = std::time::Instant::now();
@@ -66,7 +67,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         &wall.points.iter().map(|p| p.preheat).collect::<Vec<_>>(),
         n,
     );
-    let vx = per_revolution(&vox.preheat, n);
+    let vx = per_revolution(&vox.points.iter().map(|p| p.preheat).collect::<Vec<_>>(), n);
     eprintln!(
         "voxel: {} voxels, {} steps, {:.2e} updates/s, balance {:.2e}; thin wall balance {:.2e}",
         vox.voxels,
@@ -96,4 +97,30 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         vox.balance_error
     );
     assert!(worst < 1.0, "models differ by {worst} times the tolerance");
+    // Per point the rest of what the thin wall gives: time above 600 °C per revolution within
+    // 20 % (+1 s), the pool within one thin-wall node (3.1 mm here), peaks above the solidus.
+    let mean = |v: &[PointResult], k: usize, f: fn(&PointResult) -> f64| {
+        v[k * n..(k + 1) * n].iter().map(f).sum::<f64>() / n as f64
+    };
+    for k in 0..layers {
+        let (a, b) = (wall.points.as_slice(), vox.points.as_slice());
+        let above = (mean(a, k, |p| p.time_above), mean(b, k, |p| p.time_above));
+        let pool = (mean(a, k, |p| p.pool_length), mean(b, k, |p| p.pool_length));
+        let peak = (mean(a, k, |p| p.peak), mean(b, k, |p| p.peak));
+        eprintln!(
+            "revolution {k}: time above 600 °C {:.1} / {:.1} s, pool {:.1} / {:.1} mm, peak {:.0} / {:.0} °C (thin wall / voxel)",
+            above.0,
+            above.1,
+            pool.0 * 1e3,
+            pool.1 * 1e3,
+            peak.0 - 273.15,
+            peak.1 - 273.15
+        );
+        assert!(
+            (above.0 - above.1).abs() <= 0.2 * above.1 + 1.0,
+            "{above:?}"
+        );
+        assert!((pool.0 - pool.1).abs() <= 3.2e-3, "{pool:?}");
+        assert!(peak.0 > 1740.0 && peak.1 > 1740.0, "{peak:?}");
+    }
 }

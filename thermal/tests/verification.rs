@@ -194,6 +194,7 @@ fn voxel_column(dx: f64, t_end: f64) -> f64 {
         size: dx,
         deposit_temperature: 300.0,
         lead: 0.0,
+        hot_threshold: 873.15,
         courant: 0.9,
     };
     let mut m = VoxelModel::new(&[], &settings).unwrap();

@@ -17,7 +17,7 @@ use std::path::Path;
 use std::time::Instant;
 use thermal::schedule::Deposit;
 use thermal::voxel::{VoxelModel, VoxelSettings};
-use thermal::wall::{PointResult, Support, WallModel, WallResult};
+use thermal::wall::{Support, WallModel, WallResult};
 
 const C: f64 = 273.15;
 
@@ -60,8 +60,8 @@ pub fn simulate(s: &Scenario, pl: &Plan, dwell_s: &[f64], frames: usize) -> Resu
     })
 }
 
-/// The voxel model on the same schedule; it gives the preheat per point and the energy ledger
-/// (peak, pool and time above threshold are the thin-wall model's, left empty here).
+/// The voxel model on the same schedule: per point the preheat, peak, time above the threshold
+/// and pool, and the energy ledger; its field is not recorded (no snapshots).
 fn voxel(
     deposits: &[Deposit],
     w: &thermal::wall::WallSettings,
@@ -74,27 +74,14 @@ fn voxel(
         size: s.thermal.voxel_m,
         deposit_temperature: w.deposit_temperature,
         lead: w.lead,
+        hot_threshold: w.hot_threshold,
         courant: 0.9,
     };
     let model =
         VoxelModel::new(deposits, &settings).map_err(|e| Error::input(format!("thermal: {e}")))?;
     let r = model.run(deposits);
-    let empty = PointResult {
-        preheat: 0.0,
-        peak: f64::NAN,
-        pool_length: f64::NAN,
-        pool_radius: f64::NAN,
-        time_above: f64::NAN,
-    };
     Ok(WallResult {
-        points: r
-            .preheat
-            .iter()
-            .map(|&p| PointResult {
-                preheat: p,
-                ..empty
-            })
-            .collect(),
+        points: r.points,
         ledger: r.ledger,
         stored: r.stored,
         balance_error: r.balance_error,
@@ -105,7 +92,7 @@ fn voxel(
         final_temperature: Vec::new(),
         steps: r.steps,
         cg_iterations: 0,
-        underpowered: 0,
+        underpowered: r.underpowered,
         support: deposits
             .iter()
             .map(|d| {

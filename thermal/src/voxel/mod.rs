@@ -12,7 +12,7 @@ mod kernel;
 use crate::material::Material;
 use crate::network::{Ledger, SIGMA, Surroundings};
 use crate::schedule::{Deposit, validate};
-use crate::wall::Plate;
+use crate::wall::{Plate, PointResult};
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -33,14 +33,22 @@ pub struct VoxelSettings {
     pub size: f64,
     pub deposit_temperature: f64,
     pub lead: f64,
+    /// Temperature for the time-above-threshold count, K.
+    pub hot_threshold: f64,
     /// Stability margin on the explicit step (≤ 1).
     pub courant: f64,
 }
 
 #[derive(Debug, Clone)]
 pub struct VoxelResult {
-    /// Per deposit: mean temperature of the voxels it is laid on, read `lead` upstream.
-    pub preheat: Vec<f64>,
+    /// Per deposit, as the thin wall gives them: the preheat (mean temperature of the voxels it
+    /// is laid on, read `lead` upstream); the peak and the time above the threshold of its own
+    /// metal's mean temperature (a deposit that switched on no voxel of its own shares its
+    /// predecessor's); the pool behind the torch when it was laid (the deposits back from it
+    /// whose metal is above the solidus: their length, and the half sphere of their volume).
+    pub points: Vec<PointResult>,
+    /// Deposits whose heat did not cover melting their own metal (source clamped at zero).
+    pub underpowered: usize,
     pub ledger: Ledger,
     pub stored: f64,
     pub balance_error: f64,
@@ -580,10 +588,15 @@ impl VoxelModel {
         let mut order: Vec<usize> = (0..deps.len()).collect();
         order.sort_by(|&a, &b| read_at[a].total_cmp(&read_at[b]));
         let mut next = 0;
-        let mut preheat = vec![0.0; deps.len()];
+        let start = PointResult {
+            peak: s.surroundings.ambient_k,
+            ..PointResult::default()
+        };
+        let mut points = vec![start; deps.len()];
+        let mut underpowered = 0;
         let mut src = Vec::new();
         let mut now = deps.first().map_or(0.0, |d| d.arc_start());
-        self.probe(deps, &read_at, &order, &mut next, now, &mut preheat);
+        self.probe(deps, &read_at, &order, &mut next, now, &mut points);
         for i in 0..deps.len() {
             let d = &deps[i];
             // Dwell.
@@ -591,20 +604,31 @@ impl VoxelModel {
                 let dt = dt_max.min(d.arc_start() - now);
                 self.step(dt, &[]);
                 now += dt;
-                self.probe(deps, &read_at, &order, &mut next, now, &mut preheat);
+                self.observe(i, dt, &mut points);
+                self.probe(deps, &read_at, &order, &mut next, now, &mut points);
             }
             let before = self.ledger.deposited;
             self.lay(deps, i);
             // The arc's heat less what the new metal took.
-            let rest = (d.heat - (self.ledger.deposited - before)).max(0.0);
-            self.source(deps, i, rest, &mut src);
+            let rest = d.heat - (self.ledger.deposited - before);
+            underpowered += usize::from(rest < 0.0);
+            self.source(deps, i, rest.max(0.0), &mut src);
             let mut left = d.arc_time;
             while left > 1e-12 {
                 let dt = dt_max.min(left);
                 self.step(dt, &src);
                 now += dt;
                 left -= dt;
-                self.probe(deps, &read_at, &order, &mut next, now, &mut preheat);
+                self.observe(i + 1, dt, &mut points);
+                self.probe(deps, &read_at, &order, &mut next, now, &mut points);
+            }
+            (points[i].pool_length, points[i].pool_radius) = self.pool(deps, i);
+        }
+        // A deposit with no voxel of its own shares the metal of the one before it.
+        for i in 1..deps.len() {
+            if self.laid[i].is_empty() {
+                points[i].peak = points[i - 1].peak;
+                points[i].time_above = points[i - 1].time_above;
             }
         }
         let stored: f64 = self
@@ -614,7 +638,8 @@ impl VoxelModel {
             .sum();
         let e = self.ledger.energy_in();
         VoxelResult {
-            preheat,
+            points,
+            underpowered,
             ledger: self.ledger,
             stored,
             balance_error: if e > 0.0 {
@@ -628,6 +653,42 @@ impl VoxelModel {
         }
     }
 
+    /// Peak and time above the threshold of the metal of deposits 0..laid, after a step of dt.
+    fn observe(&self, laid: usize, dt: f64, points: &mut [PointResult]) {
+        for (p, voxels) in points[..laid].iter_mut().zip(&self.laid) {
+            if voxels.is_empty() {
+                continue;
+            }
+            let t = self.mean_t(voxels);
+            p.peak = p.peak.max(t);
+            if t > self.settings.hot_threshold {
+                p.time_above += dt;
+            }
+        }
+    }
+
+    /// The molten bead behind the torch as deposit i is finished: the deposits back from i
+    /// whose metal is above the solidus (length along the path, m), and the radius of the half
+    /// sphere of their volume (m).
+    fn pool(&self, deps: &[Deposit], i: usize) -> (f64, f64) {
+        let solidus = self.settings.material.solidus;
+        let (mut length, mut voxels) = (0.0, 0);
+        for j in (0..=i).rev() {
+            let laid = &self.laid[j];
+            if !laid.is_empty() && self.mean_t(laid) <= solidus {
+                break;
+            }
+            length += if j > 0 {
+                norm(sub(deps[j].position, deps[j - 1].position))
+            } else {
+                0.0
+            };
+            voxels += laid.len();
+        }
+        let volume = voxels as f64 * self.settings.size.powi(3);
+        (length, (3.0 * volume / (2.0 * std::f64::consts::PI)).cbrt())
+    }
+
     fn probe(
         &self,
         deps: &[Deposit],
@@ -635,11 +696,11 @@ impl VoxelModel {
         order: &[usize],
         next: &mut usize,
         now: f64,
-        preheat: &mut [f64],
+        points: &mut [PointResult],
     ) {
         while *next < order.len() && read_at[order[*next]] <= now + 1e-9 {
             let i = order[*next];
-            preheat[i] = self.mean_t(&self.beneath(deps, i));
+            points[i].preheat = self.mean_t(&self.beneath(deps, i));
             *next += 1;
         }
     }
@@ -722,6 +783,7 @@ mod tests {
             size: 2e-3,
             deposit_temperature: 1823.15,
             lead: 10e-3,
+            hot_threshold: 873.15,
             courant: 0.9,
         };
         (deps, settings)
@@ -729,7 +791,7 @@ mod tests {
 
     /// The vector kernel is the plain one eight at a time: on a 3-revolution build (hot metal
     /// laid, groups regular in the plate and irregular in the wall, the tail) the preheats agree
-    /// to f32 rounding (6e-5 K measured) and the losses to 1e-6.
+    /// to f32 rounding (6e-5 K measured), the peaks too, and the losses to 1e-6.
     #[test]
     fn vector_and_plain_kernels_agree() {
         if !kernel::simd_available() {
@@ -743,17 +805,22 @@ mod tests {
             m.run(&deps)
         };
         let (plain, vector) = (run(false), run(true));
-        let worst = plain
-            .preheat
-            .iter()
-            .zip(&vector.preheat)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let worst = |f: fn(&PointResult) -> f64| {
+            plain
+                .points
+                .iter()
+                .zip(&vector.points)
+                .map(|(a, b)| (f(a) - f(b)).abs())
+                .fold(0.0, f64::max)
+        };
+        let (preheat, peak) = (worst(|p| p.preheat), worst(|p| p.peak));
         let lost = (plain.ledger.lost() - vector.ledger.lost()).abs() / plain.ledger.lost();
-        eprintln!("kernels: preheat within {worst:.2e} K, losses within {lost:.2e}");
-        assert!(worst < 1e-3, "{worst}");
+        eprintln!(
+            "kernels: preheat within {preheat:.2e} K, peak within {peak:.2e} K, losses within {lost:.2e}"
+        );
+        assert!(preheat < 1e-3 && peak < 1e-3, "{preheat} {peak}");
         assert!(lost < 1e-6, "{lost}");
-        assert!(plain.preheat.iter().any(|&t| t > 400.0));
+        assert!(plain.points.iter().any(|p| p.preheat > 400.0));
     }
 
     /// One thread or two, the same numbers to the bit: chunks are fixed and their partial sums
@@ -770,7 +837,7 @@ mod tests {
         };
         let (one, two) = (run(1), run(2));
         assert!(one.voxels > 2 * CHUNKS_PER_TASK * CHUNK);
-        assert_eq!(one.preheat, two.preheat);
+        assert_eq!(one.points, two.points);
         assert_eq!(one.ledger, two.ledger);
         assert_eq!(one.stored.to_bits(), two.stored.to_bits());
     }
