@@ -271,35 +271,31 @@ impl WallModel {
             } else {
                 dist(d.position, deps[i - 1].position)
             };
-            let outside = || {
-                format!(
-                    "deposit {i} at ({:.1}, {:.1}) mm lies outside the plate",
-                    d.position[0] * 1e3,
-                    d.position[1] * 1e3
-                )
+            let under = match d.support {
+                Some(sp) => l.node_of[sp],
+                None => cell_id(d.position[0], d.position[1]).ok_or_else(|| {
+                    format!(
+                        "deposit {i} at ({:.1}, {:.1}) mm lies outside the plate",
+                        d.position[0] * 1e3,
+                        d.position[1] * 1e3
+                    )
+                })?,
             };
             // What the bead lies on: its support, or the plate cells under its width (the
             // bead's whole bottom in contact, however fine the cells: through the one cell under
             // its centre line a fine plate would take the wall's heat through a strip).
             let contacts: Vec<(usize, f64)> = match d.support {
-                Some(sp) => vec![(l.node_of[sp], 1.0)],
+                Some(_) => vec![(under, 1.0)],
                 None => {
                     let across = bead_across(deps, i);
                     (0..ACROSS)
                         .map(|j| {
                             let o = d.width * ((j as f64 + 0.5) / ACROSS as f64 - 0.5);
                             let p = [d.position[0] + o * across[0], d.position[1] + o * across[1]];
-                            cell_id(p[0], p[1])
-                                .or_else(|| cell_id(d.position[0], d.position[1]))
-                                .map(|c| (c, 1.0 / ACROSS as f64))
-                                .ok_or_else(outside)
+                            (cell_id(p[0], p[1]).unwrap_or(under), 1.0 / ACROSS as f64)
                         })
-                        .collect::<Result<_, _>>()?
+                        .collect()
                 }
-            };
-            let under = match d.support {
-                Some(sp) => l.node_of[sp],
-                None => cell_id(d.position[0], d.position[1]).ok_or_else(outside)?,
             };
             below.push(under);
             for (c, share) in contacts {
