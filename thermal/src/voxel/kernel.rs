@@ -151,7 +151,8 @@ pub(super) struct Chunk<'a> {
 /// Σ exposed·(T − T_a), Σ exposed·(T⁴ − T_a⁴) and Σ table·(T − T_a), for the energy ledger.
 ///
 /// # Safety
-/// Every index in `g.neighbours` is below `phi.len()`: the vector kernel does not check it.
+/// Every index in `g.neighbours` is below `phi.len()` (the vector kernel does not check it), and
+/// `simd` is true only where `simd_available()` is.
 pub(super) unsafe fn update(
     c: &Coefficients,
     tables: &Tables,
@@ -172,8 +173,8 @@ pub(super) unsafe fn update(
     );
     #[cfg(target_arch = "x86_64")]
     if simd {
-        // SAFETY: `simd` is true only where the processor has AVX2 and FMA (`simd_available`);
-        // the lengths are checked above, the indices are the caller's promise.
+        // SAFETY: the processor has AVX2 and FMA and the indices are in range (the caller's
+        // promise); the lengths are checked above.
         return unsafe { avx2::update(c, tables, phi, g, s) };
     }
     let _ = simd;

@@ -504,7 +504,8 @@ impl VoxelModel {
                     t,
                     phi_next,
                 };
-                // SAFETY: the neighbour invariant of `VoxelModel::neighbours`.
+                // SAFETY: the neighbour invariant of `VoxelModel::neighbours`; `simd` comes from
+                // `simd_available` (or is false).
                 unsafe { kernel::update(&c, tables, phi, &g, s, simd) }
             })
             .collect();
