@@ -130,6 +130,9 @@ fn voxel_model_through_the_command_agrees_with_the_thin_wall() {
     );
     assert_eq!(fe_layers.len(), vx_layers.len());
     assert!(vx["energy_balance_error"].as_f64().unwrap().abs() < 0.01);
+    // Its field is recorded too: the probe reads a frame of the voxel run.
+    assert!(vx["probe"]["temperature_c"].as_f64().unwrap() > 20.0);
+    assert!(vx["voxels"].as_u64().unwrap() > 1000 && vx["wall_nodes"].is_null());
     for (k, (a, b)) in fe_layers.iter().zip(&vx_layers).enumerate() {
         let (a, b): (f64, f64) = (a[4].parse().unwrap(), b[4].parse().unwrap());
         eprintln!("revolution {k}: mean preheat thin wall {a:.1} °C, voxel {b:.1} °C");

@@ -42,6 +42,7 @@ fn main() {
         deposit_temperature: 1823.15,
         lead: 10e-3,
         hot_threshold: 873.15,
+        snapshot_times: vec![],
         courant: 0.9,
     };
     for threads in [1, 2] {

@@ -58,6 +58,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         deposit_temperature: 1823.15,
         lead: 10e-3,
         hot_threshold: 873.15,
+        snapshot_times: vec![],
         courant: 0.9,
     };
     let t = std::time::Instant::now();

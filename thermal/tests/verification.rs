@@ -195,6 +195,7 @@ fn voxel_column(dx: f64, t_end: f64) -> f64 {
         deposit_temperature: 300.0,
         lead: 0.0,
         hot_threshold: 873.15,
+        snapshot_times: vec![],
         courant: 0.9,
     };
     let mut m = VoxelModel::new(&[], &settings).unwrap();

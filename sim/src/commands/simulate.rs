@@ -61,7 +61,8 @@ pub fn simulate(s: &Scenario, pl: &Plan, dwell_s: &[f64], frames: usize) -> Resu
 }
 
 /// The voxel model on the same schedule: per point the preheat, peak, time above the threshold
-/// and pool, and the energy ledger; its field is not recorded (no snapshots).
+/// and pool, the energy ledger, and the field at the frame times (a temperature per deposit,
+/// which the recording maps onto the wall as it does the thin wall's nodes).
 fn voxel(
     deposits: &[Deposit],
     w: &thermal::wall::WallSettings,
@@ -75,6 +76,7 @@ fn voxel(
         deposit_temperature: w.deposit_temperature,
         lead: w.lead,
         hot_threshold: w.hot_threshold,
+        snapshot_times: w.snapshot_times.clone(),
         courant: 0.9,
     };
     let model =
@@ -86,9 +88,9 @@ fn voxel(
         stored: r.stored,
         balance_error: r.balance_error,
         node_positions: Vec::new(),
-        node_of_deposit: Vec::new(),
-        n_wall_nodes: r.voxels,
-        snapshots: Vec::new(),
+        node_of_deposit: (0..deposits.len()).collect(),
+        n_wall_nodes: r.voxels, // reported as "voxels" in thermal.json
+        snapshots: r.snapshots,
         final_temperature: Vec::new(),
         steps: r.steps,
         cg_iterations: 0,
@@ -284,8 +286,10 @@ pub fn write_thermal(
         "closing_zone_mm": pl.closing_point.map(|_| s.dwell.closing_zone_mm),
         "build_time_s": sim.deposits.last().map_or(0.0, |d| d.time),
         "probe": crate::record::probe(sim).map(|p| json!({"point": p.point, "frame": p.frame, "t_s": p.t_s, "temperature_c": p.temperature_c})),
-        "wall_nodes": r.n_wall_nodes,
-        "plate_cells": r.node_positions.len().saturating_sub(r.n_wall_nodes),
+        // The voxel run carries its active voxel count where the thin wall has its nodes.
+        "wall_nodes": (s.thermal.model == ThermalModel::Fe).then_some(r.n_wall_nodes),
+        "plate_cells": (s.thermal.model == ThermalModel::Fe).then(|| r.node_positions.len().saturating_sub(r.n_wall_nodes)),
+        "voxels": (s.thermal.model == ThermalModel::Voxel).then_some(r.n_wall_nodes),
         "steps": r.steps,
         "cg_iterations": r.cg_iterations,
         "underpowered_deposits": r.underpowered,

@@ -12,7 +12,7 @@ mod kernel;
 use crate::material::Material;
 use crate::network::{Ledger, SIGMA, Surroundings};
 use crate::schedule::{Deposit, validate};
-use crate::wall::{Plate, PointResult};
+use crate::wall::{Plate, PointResult, Snapshot};
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -35,6 +35,8 @@ pub struct VoxelSettings {
     pub lead: f64,
     /// Temperature for the time-above-threshold count, K.
     pub hot_threshold: f64,
+    /// Times at which to keep the field, s (ascending).
+    pub snapshot_times: Vec<f64>,
     /// Stability margin on the explicit step (≤ 1).
     pub courant: f64,
 }
@@ -49,6 +51,9 @@ pub struct VoxelResult {
     pub points: Vec<PointResult>,
     /// Deposits whose heat did not cover melting their own metal (source clamped at zero).
     pub underpowered: usize,
+    /// The field at the settings' snapshot times, one temperature per deposit (K): the mean of
+    /// its metal once laid, ambient before.
+    pub snapshots: Vec<Snapshot>,
     pub ledger: Ledger,
     pub stored: f64,
     pub balance_error: f64,
@@ -173,8 +178,10 @@ impl VoxelModel {
         lo[2] = (lo[2] / dx).floor() * dx;
         let dims: [usize; 3] = std::array::from_fn(|k| ((hi[k] - lo[k]) / dx).ceil() as usize + 1);
         let (below, sink) = settle(deps);
+        let mut settings = s.clone();
+        settings.snapshot_times.sort_by(f64::total_cmp);
         let mut m = VoxelModel {
-            settings: s.clone(),
+            settings,
             tables: Tables::new(&s.material, s.surroundings.ambient_k),
             origin: lo,
             dims,
@@ -595,6 +602,7 @@ impl VoxelModel {
         };
         let mut points = vec![start; deps.len()];
         let mut underpowered = 0;
+        let mut snapshots = Vec::new();
         let mut src = Vec::new();
         let mut now = deps.first().map_or(0.0, |d| d.arc_start());
         self.probe(deps, &read_at, &order, &mut next, now, &mut points);
@@ -606,6 +614,7 @@ impl VoxelModel {
                 self.step(dt, &[]);
                 now += dt;
                 self.observe(i, dt, &mut points);
+                self.keep(i, now, &mut snapshots);
                 self.probe(deps, &read_at, &order, &mut next, now, &mut points);
             }
             let before = self.ledger.deposited;
@@ -621,6 +630,7 @@ impl VoxelModel {
                 now += dt;
                 left -= dt;
                 self.observe(i + 1, dt, &mut points);
+                self.keep(i + 1, now, &mut snapshots);
                 self.probe(deps, &read_at, &order, &mut next, now, &mut points);
             }
             (points[i].pool_length, points[i].pool_radius) = self.pool(deps, i);
@@ -641,6 +651,7 @@ impl VoxelModel {
         VoxelResult {
             points,
             underpowered,
+            snapshots,
             ledger: self.ledger,
             stored,
             balance_error: if e > 0.0 {
@@ -665,6 +676,27 @@ impl VoxelModel {
             if t > self.settings.hot_threshold {
                 p.time_above += dt;
             }
+        }
+    }
+
+    /// Keep the field at the snapshot times reached by `now`, deposits 0..laid laid: per
+    /// deposit the mean temperature of its metal (its predecessor's where it has none).
+    fn keep(&self, laid: usize, now: f64, snapshots: &mut Vec<Snapshot>) {
+        let times = &self.settings.snapshot_times;
+        while snapshots.len() < times.len() && times[snapshots.len()] <= now + 1e-9 {
+            let ambient = self.settings.surroundings.ambient_k;
+            let mut temperature = vec![ambient; self.laid.len()];
+            for i in 0..laid {
+                temperature[i] = match (self.laid[i].is_empty(), i) {
+                    (false, _) => self.mean_t(&self.laid[i]),
+                    (true, 0) => ambient,
+                    (true, _) => temperature[i - 1],
+                };
+            }
+            snapshots.push(Snapshot {
+                time: times[snapshots.len()],
+                temperature,
+            });
         }
     }
 
@@ -785,6 +817,7 @@ mod tests {
             deposit_temperature: 1823.15,
             lead: 10e-3,
             hot_threshold: 873.15,
+            snapshot_times: vec![],
             courant: 0.9,
         };
         (deps, settings)
