@@ -670,8 +670,9 @@ pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
 /// The arc's heat over the footprint: the nodes behind the torch along the path (its own node
 /// first) whose centres lie within `footprint` of arc length from it, weighted by the Gaussian
 /// exp(−3 s²/footprint²). Along the path, as the Goldak ellipsoid of the voxel model lies along
-/// the bead: a sphere round the torch put more than half of it into the revolutions below,
-/// which made the thin wall read 5 % of the rise above the voxel model (docs/PHYSICS.md).
+/// the bead: a sphere round the torch put more than half of it into the revolutions below (57 %
+/// on the comparison cylinder), which made the thin wall read 5 % of the rise above the voxel
+/// model (docs/PHYSICS.md).
 fn footprint_weights(
     m: &WallModel,
     node: usize,
