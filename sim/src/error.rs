@@ -55,4 +55,51 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
+/// A schedule or plate the heat model cannot take is the user's input (exit 2); a numerical
+/// failure, with its time, place and value, is ours (exit 1).
+impl From<thermal::ThermalError> for Error {
+    fn from(e: thermal::ThermalError) -> Self {
+        let message = format!("thermal: {e}");
+        if e.is_input() {
+            Error::input(message)
+        } else {
+            Error::failure(message)
+        }
+    }
+}
+
+impl From<crate::pipeline::Error> for Error {
+    fn from(e: crate::pipeline::Error) -> Self {
+        match e {
+            crate::pipeline::Error::Plan(_) => Error::input(e.to_string()),
+            crate::pipeline::Error::Thermal(t) => t.into(),
+        }
+    }
+}
+
 pub type Result<T> = std::result::Result<T, Error>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use thermal::ThermalError;
+
+    #[test]
+    fn numerical_failures_exit_1_and_bad_schedules_exit_2() {
+        let nan = ThermalError::NonFinite {
+            time_s: 12.5,
+            position_mm: [1.0, 2.0, 3.0],
+            what: "temperature (K)",
+            value: f64::NAN,
+        };
+        let e = Error::from(nan);
+        assert_eq!(e.exit_code(), 1);
+        assert!(e.message.contains("t = 12.500 s") && e.message.contains("(1.0, 2.0, 3.0) mm"));
+        let outside = ThermalError::OutsidePlate {
+            deposit: 3,
+            x_mm: 400.0,
+            y_mm: 0.0,
+        };
+        assert_eq!(Error::from(outside).exit_code(), 2);
+    }
+}

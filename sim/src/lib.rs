@@ -1,20 +1,19 @@
 //! # sim
 //!
-//! Wires the pipeline together (plan → beads → heat → decisions and files) and holds the
-//! `waamtwin` command. This is the only crate that touches files; the models take and return
-//! plain data.
+//! Runs the pipeline (plan → beads → heat → decisions) and writes its files; holds the
+//! `waamtwin` command. Two layers: [`pipeline`], the engine, which does no IO and takes plain
+//! parameter types; and the shell around it ([`scenario`] and [`part`] read the inputs,
+//! [`commands`] call the engine, [`output`] and [`record`] write the files). This is the only
+//! crate that touches files.
 
-pub mod beads;
 pub mod cli;
 pub mod commands;
-pub mod deposition;
-pub mod dwell;
 pub mod error;
 pub mod output;
 pub mod part;
+pub mod pipeline;
 pub mod progress;
 pub mod record;
-pub mod risk;
 pub mod scenario;
 
 use cli::Command;

@@ -6,10 +6,35 @@
 //!
 //! - [`material`]: properties and the enthalpy–temperature relation (latent heat included).
 //! - [`network`]: lumped nodes and conductances stepped by backward Euler, energy booked exactly.
+//! - [`run`]: the contract both heat models serve ([`HeatRun`], [`HeatModel`]) and the types
+//!   they share: per-point results, what a point lies on, field snapshots, the plate.
 //! - [`wall`]: the thin-wall model on the path's grid, with the substrate plate.
+//! - [`voxel`]: the 3-D voxel model, the reference for local detail.
+//! - [`error`]: what can go wrong, with the evidence.
 
+pub mod error;
 pub mod material;
 pub mod network;
+pub mod run;
 pub mod schedule;
 pub mod voxel;
 pub mod wall;
+
+pub use error::ThermalError;
+pub use run::{
+    Cells, CoolingSteps, HeatModel, HeatRun, ModelRun, Plate, PointResult, RunResult, Snapshot,
+    Support,
+};
+
+/// 0 °C in kelvin: the one place the interface's °C and the models' K meet.
+pub const ZERO_CELSIUS_K: f64 = 273.15;
+
+/// Kelvin from degrees Celsius.
+pub fn kelvin(celsius: f64) -> f64 {
+    celsius + ZERO_CELSIUS_K
+}
+
+/// Degrees Celsius from kelvin.
+pub fn celsius(kelvin: f64) -> f64 {
+    kelvin - ZERO_CELSIUS_K
+}

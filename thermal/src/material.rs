@@ -8,6 +8,36 @@
 const T_MAX: f64 = 4000.0;
 const TABLE_STEP: f64 = 1.0;
 
+/// The named constants of a filler metal: the one definition every crate of the workbench
+/// reads (the temperature-dependent tables below, the bead model's Bond number, the
+/// constant-property mode). Sources in docs/PHYSICS.md.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Preset {
+    pub name: &'static str,
+    pub density_kg_m3: f64,
+    pub solidus_k: f64,
+    pub liquidus_k: f64,
+    pub latent_j_kg: f64,
+    pub surface_tension_n_m: f64,
+    /// Room-temperature values, for the constant-property mode.
+    pub specific_heat_j_kgk: f64,
+    pub diffusivity_m2_s: f64,
+}
+
+/// G3Si (ER70S-6 class): density, surface tension and diffusivity from the skeleton-AM paper's
+/// Table 1 (Radel et al. 2019); solidus, liquidus and latent heat of low-carbon steel; c_p =
+/// 480 J/(kg K) at room temperature.
+pub const G3SI: Preset = Preset {
+    name: "G3Si",
+    density_kg_m3: 7800.0,
+    solidus_k: 1740.0,
+    liquidus_k: 1790.0,
+    latent_j_kg: 2.7e5,
+    surface_tension_n_m: 1.6,
+    specific_heat_j_kgk: 480.0,
+    diffusivity_m2_s: 14e-6,
+};
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
     pub density: f64,
@@ -39,7 +69,15 @@ impl Material {
     /// 1740 K and liquidus 1790 K, latent heat 270 kJ/kg, density 7800 kg/m³ (Radel et al.
     /// 2019). Sources and caveats in docs/PHYSICS.md.
     pub fn g3si() -> Material {
-        Material::tabulate(7800.0, eurocode_cp, eurocode_k, 1740.0, 1790.0, 2.7e5)
+        let p = G3SI;
+        Material::tabulate(
+            p.density_kg_m3,
+            eurocode_cp,
+            eurocode_k,
+            p.solidus_k,
+            p.liquidus_k,
+            p.latent_j_kg,
+        )
     }
 
     fn tabulate(

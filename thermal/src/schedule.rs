@@ -1,6 +1,8 @@
 //! The deposition schedule: what the thermal models take. Where and when the torch lays metal,
 //! how much, and how much heat enters the part; nothing about generators, layers or files.
 
+use crate::error::ThermalError;
+
 /// One deposit, in path order. SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Deposit {
@@ -26,28 +28,43 @@ impl Deposit {
     }
 }
 
-/// Checks the schedule: times increase, arc times fit, sizes positive, supports earlier.
-pub fn validate(deposits: &[Deposit]) -> Result<(), String> {
+/// Checks the schedule: times increase, arc times fit, sizes positive and finite, supports
+/// earlier.
+pub fn validate(deposits: &[Deposit]) -> Result<(), ThermalError> {
+    let bad = |deposit: usize, reason: String| Err(ThermalError::Schedule { deposit, reason });
     let mut previous = f64::NEG_INFINITY;
     for (i, d) in deposits.iter().enumerate() {
-        if !(d.arc_time >= 0.0 && d.arc_start() >= previous - 1e-9) {
-            return Err(format!(
-                "deposit {i}: arc starts at {} s, before the previous deposit ends ({previous} s)",
-                d.arc_start()
-            ));
+        if !d.position.iter().all(|x| x.is_finite()) || !d.time.is_finite() {
+            return bad(
+                i,
+                format!(
+                    "position {:?} m at {} s; expected finite numbers",
+                    d.position, d.time
+                ),
+            );
         }
-        if !(d.width > 0.0 && d.height > 0.0 && d.heat >= 0.0) {
-            return Err(format!(
-                "deposit {i}: width {} m, height {} m, heat {} J; expected positive",
-                d.width, d.height, d.heat
-            ));
+        if !(d.arc_time >= 0.0 && d.arc_start() >= previous - 1e-9) {
+            return bad(
+                i,
+                format!(
+                    "arc starts at {} s, before the previous deposit ends ({previous} s)",
+                    d.arc_start()
+                ),
+            );
+        }
+        if !(d.width > 0.0 && d.height > 0.0 && d.heat >= 0.0 && d.heat.is_finite()) {
+            return bad(
+                i,
+                format!(
+                    "width {} m, height {} m, heat {} J; expected positive and finite",
+                    d.width, d.height, d.heat
+                ),
+            );
         }
         if let Some(s) = d.support
             && s >= i
         {
-            return Err(format!(
-                "deposit {i} is laid on deposit {s}, which comes later"
-            ));
+            return bad(i, format!("laid on deposit {s}, which comes later"));
         }
         previous = d.time;
     }

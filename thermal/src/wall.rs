@@ -7,22 +7,15 @@
 //! from its top and through the table beneath. Nodes switch on as the torch lays them, arriving
 //! molten; the rest of the arc's heat goes into the nodes of the torch footprint behind it.
 
+use crate::error::ThermalError;
 use crate::material::Material;
-use crate::network::{Ledger, Network, Surroundings};
+use crate::network::{Network, Surroundings};
+use crate::run::{
+    Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, replay,
+};
 use crate::schedule::{Deposit, validate};
 use std::collections::HashMap;
 use std::sync::Arc;
-
-#[derive(Debug, Clone, PartialEq)]
-pub struct Plate {
-    /// Size x, y and thickness, m.
-    pub size: [f64; 3],
-    /// Centre of the plate's top face in x and y, m (the top face is at z = 0).
-    pub centre: [f64; 2],
-    pub cell: f64,
-    /// Cell layers through the thickness: the wall heats the plate's top skin first.
-    pub layers: usize,
-}
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct WallSettings {
@@ -43,62 +36,6 @@ pub struct WallSettings {
     pub max_step: f64,
     /// Times at which to keep the whole field, s.
     pub snapshot_times: Vec<f64>,
-}
-
-/// What a deposit is laid on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Support {
-    /// The substrate plate (the first revolution).
-    Plate,
-    /// An earlier revolution.
-    Deposit,
-    /// A deposit laid at or after the moment this one's preheat is read (`lead` upstream), or
-    /// inside the torch's footprint at that moment: near a closing point, where a revolution is
-    /// not much longer than the lead, the reading is the arc's own heat, and no dwell can come
-    /// between the two.
-    JustLaid,
-}
-
-/// Per deposit.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct PointResult {
-    /// Temperature of the metal this deposit is laid on, read when the torch is `lead` upstream.
-    pub preheat: f64,
-    /// Highest temperature its node reached, K.
-    pub peak: f64,
-    /// Length of molten bead behind the torch when it was laid, m.
-    pub pool_length: f64,
-    /// Radius of the half sphere of the molten volume, m.
-    pub pool_radius: f64,
-    /// Time its node spent above the threshold, s.
-    pub time_above: f64,
-}
-
-#[derive(Debug, Clone)]
-pub struct Snapshot {
-    pub time: f64,
-    pub temperature: Vec<f64>,
-}
-
-#[derive(Debug, Clone)]
-pub struct WallResult {
-    pub points: Vec<PointResult>,
-    pub ledger: Ledger,
-    pub stored: f64,
-    /// (in − stored − lost)/in.
-    pub balance_error: f64,
-    /// Node positions (wall then plate cells), m, and which node each deposit belongs to.
-    pub node_positions: Vec<[f64; 3]>,
-    pub node_of_deposit: Vec<usize>,
-    pub n_wall_nodes: usize,
-    pub snapshots: Vec<Snapshot>,
-    pub final_temperature: Vec<f64>,
-    pub steps: usize,
-    pub cg_iterations: usize,
-    /// Deposits whose heat did not cover melting their own metal (source clamped at zero).
-    pub underpowered: usize,
-    /// What each deposit is laid on.
-    pub support: Vec<Support>,
 }
 
 struct Layout {
@@ -179,7 +116,7 @@ pub struct WallModel {
 }
 
 impl WallModel {
-    pub fn build(deps: &[Deposit], s: &WallSettings) -> Result<WallModel, String> {
+    pub fn build(deps: &[Deposit], s: &WallSettings) -> Result<WallModel, ThermalError> {
         validate(deps)?;
         let l = layout(deps, s.min_node);
         let nw = l.first.len();
@@ -273,13 +210,13 @@ impl WallModel {
             };
             let under = match d.support {
                 Some(sp) => l.node_of[sp],
-                None => cell_id(d.position[0], d.position[1]).ok_or_else(|| {
-                    format!(
-                        "deposit {i} at ({:.1}, {:.1}) mm lies outside the plate",
-                        d.position[0] * 1e3,
-                        d.position[1] * 1e3
-                    )
-                })?,
+                None => {
+                    cell_id(d.position[0], d.position[1]).ok_or(ThermalError::OutsidePlate {
+                        deposit: i,
+                        x_mm: d.position[0] * 1e3,
+                        y_mm: d.position[1] * 1e3,
+                    })?
+                }
             };
             // What the bead lies on: its support, or the plate cells under its width (the
             // bead's whole bottom in contact, however fine the cells: through the one cell under
@@ -343,15 +280,16 @@ impl WallModel {
 
     /// Run the schedule as its times say (dwells are the gaps between arcs) and `cool_after`
     /// seconds beyond.
-    pub fn run(self, deps: &[Deposit], s: &WallSettings, cool_after: f64) -> WallResult {
+    pub fn run(
+        self,
+        deps: &[Deposit],
+        s: &WallSettings,
+        cool_after: f64,
+    ) -> Result<RunResult, ThermalError> {
         let mut run = WallRun::new(self, deps, s);
-        let mut previous_end = deps.first().map_or(0.0, |d| d.arc_start());
-        for (i, d) in deps.iter().enumerate() {
-            run.deposit(deps, i, (d.arc_start() - previous_end).max(0.0));
-            previous_end = d.time;
-        }
-        run.cool(cool_after);
-        run.finish()
+        replay(&mut run, deps)?;
+        run.cool(cool_after)?;
+        Ok(run.finish())
     }
 }
 
@@ -361,13 +299,12 @@ impl WallModel {
 pub struct WallRun {
     model: WallModel,
     settings: Arc<WallSettings>,
+    deps: Arc<Vec<Deposit>>,
     /// Per deposit, the deposit during whose arc its preheat is read (dwell-independent: the
     /// torch is `lead` upstream along the path).
     probes_at: Arc<Vec<Vec<(usize, f64)>>>,
-    /// Per deposit: the deposit it is laid on, and the one during whose arc its preheat is read.
-    support_of: Arc<Vec<Option<usize>>>,
+    /// Per deposit, the deposit during whose arc its preheat is read.
     read_at: Arc<Vec<Option<usize>>>,
-    positions_of: Arc<Vec<[f64; 3]>>,
     points: Vec<PointResult>,
     time_above: Vec<f64>,
     peak: Vec<f64>,
@@ -376,8 +313,8 @@ pub struct WallRun {
     power: Vec<f64>,
     below: Arc<Vec<usize>>,
     /// Time now, s; deposits laid so far.
-    pub now: f64,
-    pub laid: usize,
+    now: f64,
+    laid: usize,
     /// The next cooling step, s: it doubles from 1 s while the part cools with the arc off, and
     /// starts again at 1 s once a deposit is laid, so that cooling continued in several calls
     /// (a dwell search trying longer and longer dwells) takes the steps one call would.
@@ -407,10 +344,9 @@ impl WallRun {
         let mut settings = s.clone();
         settings.snapshot_times = snap;
         WallRun {
+            deps: Arc::new(deps.to_vec()),
             probes_at: Arc::new(probes_at),
-            support_of: Arc::new(deps.iter().map(|d| d.support).collect()),
             read_at: Arc::new(read_at),
-            positions_of: Arc::new(deps.iter().map(|d| d.position).collect()),
             points,
             time_above: vec![0.0; n],
             peak: vec![s.surroundings.ambient_k; n],
@@ -429,44 +365,68 @@ impl WallRun {
         }
     }
 
-    pub fn points(&self) -> &[PointResult] {
-        &self.points
-    }
-
     /// The temperatures of the nodes, K (wall nodes first, then the plate).
     pub fn temperatures(&self) -> &[f64] {
         &self.model.network.t
     }
 
-    /// The node deposit i belongs to.
-    pub fn node_of(&self, i: usize) -> usize {
-        self.model.node_of[i]
-    }
-
-    /// Node deposit i is laid on (a wall node or a plate cell).
-    pub fn below(&self, i: usize) -> usize {
-        self.below[i]
-    }
-
-    /// What deposit i is laid on.
-    pub fn support(&self, i: usize) -> Support {
-        let (b, own) = (self.below[i], self.model.node_of[i]);
-        let footprint = self.settings.footprint;
-        let read_after_support = matches!((self.support_of[i], self.read_at[i]),
-            (Some(s), Some(r)) if s >= r || dist(self.positions_of[s], self.positions_of[r]) < footprint);
-        if b >= self.model.n_wall {
-            Support::Plate
-        } else if b >= own || read_after_support {
-            Support::JustLaid
-        } else {
-            Support::Deposit
+    /// A numerical failure shows as a non-finite temperature or loss: checked at `node` (the
+    /// deposit just laid, where the heat went in) and in the ledger after every deposit, and at
+    /// every node after a cooling.
+    fn check(&self, node: Option<usize>) -> Result<(), ThermalError> {
+        let net = &self.model.network;
+        let bad = match node {
+            Some(k) => !(net.t[k].is_finite() && net.ledger.lost().is_finite()),
+            None => true,
+        };
+        if !bad {
+            return Ok(());
+        }
+        match net.t.iter().position(|t| !t.is_finite()) {
+            Some(k) => Err(ThermalError::NonFinite {
+                time_s: self.now,
+                position_mm: self.model.positions[k].map(|x| x * 1e3),
+                what: "temperature (K)",
+                value: net.t[k],
+            }),
+            None if !net.ledger.lost().is_finite() => Err(ThermalError::NonFinite {
+                time_s: self.now,
+                position_mm: node
+                    .map_or([f64::NAN; 3], |k| self.model.positions[k].map(|x| x * 1e3)),
+                what: "heat lost (J)",
+                value: net.ledger.lost(),
+            }),
+            None => Ok(()),
         }
     }
 
-    /// Cool `dwell` seconds, then lay deposit i: its metal arrives molten and the rest of its
-    /// heat goes in over its arc time.
-    pub fn deposit(&mut self, deps: &[Deposit], i: usize, dwell: f64) {
-        self.cool(dwell);
+    fn observe(&mut self, dt: f64) {
+        let net = &self.model.network;
+        let thr = self.settings.hot_threshold;
+        for k in 0..net.len() {
+            if net.active[k] {
+                if net.t[k] > thr {
+                    self.time_above[k] += dt;
+                }
+                self.peak[k] = self.peak[k].max(net.t[k]);
+            }
+        }
+        let times = &self.settings.snapshot_times;
+        while self.next_snapshot < times.len() && times[self.next_snapshot] <= self.now + 1e-9 {
+            self.snapshots.push(Snapshot {
+                time: times[self.next_snapshot],
+                temperature: self.model.node_of.iter().map(|&k| net.t[k]).collect(),
+            });
+            self.next_snapshot += 1;
+        }
+    }
+}
+
+impl HeatRun for WallRun {
+    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError> {
+        self.cool(dwell)?;
+        let deps = Arc::clone(&self.deps);
+        let deps = &deps[..];
         let (t_deposit, footprint) = (self.settings.deposit_temperature, self.settings.footprint);
         let d = &deps[i];
         let m = &mut self.model;
@@ -523,19 +483,15 @@ impl WallRun {
         self.points[i].pool_radius = (3.0 * vol / (2.0 * std::f64::consts::PI)).cbrt();
         self.laid = i + 1;
         self.cooling_step = 1.0;
-    }
-
-    /// The longest cooling step, s.
-    pub fn max_cooling_step(&self) -> f64 {
-        self.settings.max_step
+        self.check(Some(node))
     }
 
     /// Let the part cool (no source) for `duration`, in steps doubling from one second to the
     /// settings' longest step (backward Euler is stable at any step; cooling slows as it goes),
     /// carried on from where an earlier cooling since the last deposit stopped.
-    pub fn cool(&mut self, duration: f64) {
+    fn cool(&mut self, duration: f64) -> Result<(), ThermalError> {
         if duration <= 1e-9 {
-            return;
+            return Ok(());
         }
         self.power.iter_mut().for_each(|p| *p = 0.0);
         let end = self.now + duration;
@@ -548,30 +504,51 @@ impl WallRun {
             dt = (dt * 2.0).min(self.settings.max_step);
         }
         self.cooling_step = dt;
+        self.check(None)
     }
 
-    fn observe(&mut self, dt: f64) {
-        let net = &self.model.network;
-        let thr = self.settings.hot_threshold;
-        for k in 0..net.len() {
-            if net.active[k] {
-                if net.t[k] > thr {
-                    self.time_above[k] += dt;
-                }
-                self.peak[k] = self.peak[k].max(net.t[k]);
-            }
-        }
-        let times = &self.settings.snapshot_times;
-        while self.next_snapshot < times.len() && times[self.next_snapshot] <= self.now + 1e-9 {
-            self.snapshots.push(Snapshot {
-                time: times[self.next_snapshot],
-                temperature: net.t.clone(),
-            });
-            self.next_snapshot += 1;
+    fn points(&self) -> &[PointResult] {
+        &self.points
+    }
+
+    fn support(&self, i: usize) -> Support {
+        let (b, own) = (self.below[i], self.model.node_of[i]);
+        let footprint = self.settings.footprint;
+        let deps = &self.deps;
+        let read_after_support = matches!((deps[i].support, self.read_at[i]),
+            (Some(s), Some(r)) if s >= r || dist(deps[s].position, deps[r].position) < footprint);
+        if b >= self.model.n_wall {
+            Support::Plate
+        } else if b >= own || read_after_support {
+            Support::JustLaid
+        } else {
+            Support::Deposit
         }
     }
 
-    pub fn finish(mut self) -> WallResult {
+    fn laid(&self) -> usize {
+        self.laid
+    }
+
+    fn now(&self) -> f64 {
+        self.now
+    }
+
+    fn temperature_beneath(&self, i: usize) -> f64 {
+        self.model.network.t[self.below[i]]
+    }
+
+    fn temperature_of(&self, i: usize) -> f64 {
+        self.model.network.t[self.model.node_of[i]]
+    }
+
+    fn cooling_steps(&self) -> CoolingSteps {
+        CoolingSteps::Doubling {
+            max: self.settings.max_step,
+        }
+    }
+
+    fn finish(mut self) -> RunResult {
         let support = (0..self.points.len()).map(|i| self.support(i)).collect();
         for (i, p) in self.points.iter_mut().enumerate() {
             let node = self.model.node_of[i];
@@ -579,20 +556,20 @@ impl WallRun {
             p.time_above = self.time_above[node];
         }
         let net = &self.model.network;
-        WallResult {
+        RunResult {
             points: self.points,
+            support,
+            snapshots: self.snapshots,
             ledger: net.ledger,
             stored: net.stored(),
             balance_error: net.balance_error(),
-            node_positions: self.model.positions.to_vec(),
-            node_of_deposit: self.model.node_of.to_vec(),
-            n_wall_nodes: self.model.n_wall,
-            snapshots: self.snapshots,
-            final_temperature: net.t.clone(),
-            steps: net.steps,
-            cg_iterations: net.iterations,
             underpowered: self.underpowered,
-            support,
+            steps: net.steps,
+            cells: Cells::ThinWall {
+                wall_nodes: self.model.n_wall,
+                plate_cells: net.len() - self.model.n_wall,
+                cg_iterations: net.iterations,
+            },
         }
     }
 }
@@ -645,26 +622,6 @@ fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
         s[i] = s[i - 1] + dist(deps[i].position, deps[i - 1].position);
     }
     s
-}
-
-pub(crate) fn read_times(deps: &[Deposit], lead: f64) -> Vec<f64> {
-    let s = arc_lengths(deps);
-    (0..deps.len())
-        .map(|i| {
-            let target = s[i] - lead;
-            if target < 0.0 {
-                // Before the path starts: read before anything is laid.
-                return f64::NEG_INFINITY;
-            }
-            // The torch passes arc length `target` during the arc of the segment ending at j.
-            let j = s
-                .partition_point(|&x| x < target)
-                .min(deps.len() - 1)
-                .max(1);
-            let f = (target - s[j - 1]) / (s[j] - s[j - 1]).max(1e-12);
-            deps[j].arc_start() + f * deps[j].arc_time
-        })
-        .collect()
 }
 
 /// The arc's heat over the footprint: the nodes behind the torch along the path (its own node

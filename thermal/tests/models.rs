@@ -4,7 +4,8 @@ use thermal::material::Material;
 use thermal::network::Surroundings;
 use thermal::schedule::helix;
 use thermal::voxel::{VoxelModel, VoxelSettings};
-use thermal::wall::{Plate, PointResult, WallModel, WallSettings};
+use thermal::wall::{WallModel, WallSettings};
+use thermal::{Cells, Plate, PointResult};
 
 fn surroundings() -> Surroundings {
     Surroundings {
@@ -49,7 +50,10 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         max_step: 30.0,
         snapshot_times: vec![],
     };
-    let wall = WallModel::build(&deps, &ws).unwrap().run(&deps, &ws, 0.0);
+    let wall = WallModel::build(&deps, &ws)
+        .unwrap()
+        .run(&deps, &ws, 0.0)
+        .unwrap();
     let vs = VoxelSettings {
         material,
         surroundings: surroundings(),
@@ -62,7 +66,10 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         courant: 0.9,
     };
     let t = std::time::Instant::now();
-    let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps);
+    let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps).unwrap();
+    let Cells::Voxel { voxels, updates } = vox.cells else {
+        panic!("a voxel run reports voxels")
+    };
     let secs = t.elapsed().as_secs_f64();
     let fe: Vec<f64> = per_revolution(
         &wall.points.iter().map(|p| p.preheat).collect::<Vec<_>>(),
@@ -71,9 +78,9 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     let vx = per_revolution(&vox.points.iter().map(|p| p.preheat).collect::<Vec<_>>(), n);
     eprintln!(
         "voxel: {} voxels, {} steps, {:.2e} updates/s, balance {:.2e}; thin wall balance {:.2e}",
-        vox.voxels,
+        voxels,
         vox.steps,
-        vox.updates as f64 / secs,
+        updates as f64 / secs,
         vox.balance_error,
         wall.balance_error
     );

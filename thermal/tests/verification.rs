@@ -2,10 +2,10 @@
 //! (Radel et al. 2019: ρ = 7800 kg/m³, α = 14e-6 m²/s; c_p = 480 J/(kg K) so k = 52.416 W/(m K)),
 //! no latent heat in range.
 
+use thermal::Plate;
 use thermal::material::Material;
 use thermal::network::{Network, Surroundings};
 use thermal::voxel::{VoxelModel, VoxelSettings};
-use thermal::wall::Plate;
 
 const RHO: f64 = 7800.0;
 const CP: f64 = 480.0;

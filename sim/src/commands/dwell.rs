@@ -1,20 +1,19 @@
 //! `waamtwin dwell SCENARIO -o DIR [--no-baselines]`: plan, simulate, plan the cooling dwells,
 //! check them in a fresh simulation of the dwelled path, and compare with the baselines.
 
-use super::simulate::{Simulation, record, simulate, write_thermal};
-use crate::beads::beads;
-use crate::deposition::{schedule, wall_settings};
-use crate::dwell::{dwell_points, first_risk, plan_dwells, uniform_baseline, wait_until_cool};
-use crate::error::{Error, Result};
+use super::simulate::{heat, record, write_thermal};
+use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
+use crate::pipeline::dwell::{dwell_points, first_risk, uniform_baseline, wait_until_cool};
+use crate::pipeline::{Build, Simulation};
 use crate::progress::Stage;
-use crate::risk::judge;
 use crate::scenario::Scenario;
 use serde_json::{Value, json};
 use std::fmt::Write;
 use std::path::Path;
 use std::time::Instant;
+use thermal::celsius;
 
 pub fn run(scenario: &Path, out: &Path, baselines: bool) -> Result<String> {
     let s = Scenario::load(scenario)?;
@@ -28,69 +27,69 @@ pub fn run(scenario: &Path, out: &Path, baselines: bool) -> Result<String> {
 /// dwell command into `dir` (all but the manifest).
 pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result<String> {
     let part = load_part(&s.part)?;
-    let pl = super::plan::plan_part(s, &part)?;
-    let b = beads(s, &pl);
-    let deps = schedule(s, &pl, &b, &[]);
-    let settings = wall_settings(s, &deps, Vec::new());
-    let fail = |e: String| Error::input(format!("thermal: {e}"));
-
-    let before = simulate(s, &pl, &[], 0)?;
+    let b = super::plan::build(s, &part)?;
+    let before = heat(&b, &[], 0)?;
     let clock = Instant::now();
     let plan = {
         let _stage = Stage::start("planning the dwells");
-        plan_dwells(s, &pl, &deps, &settings).map_err(fail)?
+        b.plan_dwells()?
     };
     let search_s = clock.elapsed().as_secs_f64();
-    let after = simulate(s, &pl, &plan.dwell_s, s.output.frames)?;
+    let after = heat(&b, &plan.dwell_s, s.output.frames)?;
+    let (pl, d) = (&b.plan, &b.params.dwell);
+    let risks_after = after.risks(&b.criteria);
     let risky_after: Vec<usize> = (0..pl.points.len())
-        .filter(|&i| judge(s, &after.result.points[i], after.support[i], 0.0).is_some())
+        .filter(|&i| risks_after[i].is_some())
         .collect();
 
     let total = plan.dwell_s.iter().sum::<f64>();
     let count = plan.dwell_s.iter().filter(|&&d| d > 0.0).count();
-    let build = |sim: &Simulation| sim.deposits.last().map_or(0.0, |d| d.time);
     let mut summary = json!({
         "policy": "revolution",
+        "model": after.model,
         "criteria": {
-            "interpass_max_c": s.dwell.interpass_max_k - 273.15,
-            "interpass": s.dwell.interpass,
-            "strength_loss_c": s.dwell.strength_loss_k.map(|k| k - 273.15),
-            "humping": s.dwell.humping,
-            "bond": s.dwell.bond,
+            "interpass_max_c": celsius(d.interpass_max_k),
+            "interpass": d.interpass,
+            "strength_loss_c": d.strength_loss_k.map(celsius),
+            "humping": d.humping,
+            "bond": d.bond,
         },
         "total_dwell_s": total,
         "dwell_count": count,
-        "cost_s": total + s.dwell.count_weight_s * count as f64,
-        "build_time_s": {"before": build(&before), "after": build(&after)},
-        "first_risk_before": first_risk_json(s, &before),
+        "cost_s": total + d.count_weight_s * count as f64,
+        "build_time_s": {"before": before.build_time_s(), "after": after.build_time_s()},
+        "first_risk_before": first_risk_json(&b, &before),
         "risky_points_after": risky_after.len(),
         "risky_after": risky_after.iter().take(50).map(|&i| json!({"i": i, "layer": pl.points[i].layer,
-            "reason": judge(s, &after.result.points[i], after.support[i], 0.0).map(|r| r.as_str()),
-            "preheat_c": after.result.points[i].preheat - 273.15, "pool_length_mm": after.result.points[i].pool_length * 1e3})).collect::<Vec<_>>(),
+            "reason": risks_after[i].map(|r| r.as_str()),
+            "preheat_c": celsius(after.result.points[i].preheat), "pool_length_mm": after.result.points[i].pool_length * 1e3})).collect::<Vec<_>>(),
         "unresolved_points": plan.unresolved.len(),
         "search_deposits_in_builds": plan.cost_builds,
         "search_wall_s": search_s,
-        "single_build_wall_s": before.wall_s,
-        "search_cost_in_builds": search_s / before.wall_s.max(1e-9),
+        "single_build_wall_s": before.wall_clock_s,
+        "search_cost_in_builds": search_s / before.wall_clock_s.max(1e-9),
     });
     if baselines {
         let _stage = Stage::start("baselines: uniform dwell, wait until cool");
-        let uniform = uniform_baseline(s, &pl, &deps, &settings).map_err(fail)?;
+        let deps = b.deposits();
+        let model = b.heat_model(deps, Vec::new());
+        let search = b.search();
+        let uniform = uniform_baseline(&search, pl, &model, deps)?;
         // Where the uniform policy stops working (a dome's closing zone), both are compared on
         // the points before.
         let until = uniform.until;
-        let slots = dwell_points(&pl, &deps, settings.lead)
+        let slots = dwell_points(pl, deps, model.lead())
             .into_iter()
             .filter(|&i| i < until)
             .count();
         let planned_there: f64 = plan.dwell_s[..until].iter().sum();
-        let waits = wait_until_cool(s, &pl, &deps, &settings).map_err(fail)?;
+        let waits = wait_until_cool(&search, pl, &model, deps)?;
         let wait_total: f64 = waits.iter().sum();
         let n = deps.len();
-        let wait_risk = first_risk(s, &deps, &settings, &waits, n).map_err(fail)?;
+        let wait_risk = first_risk(&search, &model, deps, &waits, n)?;
         let wait_safe_until = wait_risk.map_or(n, |(i, _)| i);
         summary["baselines"] = json!({
-            "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(s, &before)},
+            "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(&b, &before)},
             "uniform": {
                 "dwell_per_revolution_s": uniform.dwell_s,
                 "judged_before_point": until,
@@ -111,9 +110,9 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
         }
         summary["ratio_to_wait_until_cool"] = json!(total / wait_total.max(1e-9));
     }
-    super::plan::write_plan(dir, s, &pl)?;
-    write_thermal(dir, s, &pl, &after, &plan.dwell_s)?;
-    record(dir, s, &part, &pl, &after, &plan.dwell_s, Some(&before))?;
+    super::plan::write_plan(dir, s, &b)?;
+    write_thermal(dir, &b, &after)?;
+    record(dir, s, &part, &b, &after, Some(&before))?;
     let mut csv = String::from("i,layer,t_s,dwell_s,reason,x_mm,y_mm,z_mm\n");
     for (i, &d) in plan.dwell_s.iter().enumerate() {
         if d > 0.0 {
@@ -133,19 +132,21 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
     dir.write("dwells.csv", csv.as_bytes())?;
     dir.write_json("dwell.json", &summary)?;
     Ok(format!(
-        "{count} dwells, {total:.0} s in all; build {:.0} s → {:.0} s; {} points still at risk; search {:.1} builds of wall time",
-        build(&before),
-        build(&after),
+        "{count} dwells, {total:.0} s in all; build {:.0} s → {:.0} s; {} points still at risk; search {:.1} {} builds of wall time",
+        before.build_time_s(),
+        after.build_time_s(),
         risky_after.len(),
-        search_s / before.wall_s.max(1e-9)
+        search_s / before.wall_clock_s.max(1e-9),
+        if after.model == "voxel" {
+            "voxel"
+        } else {
+            "thin-wall"
+        }
     ))
 }
 
-fn first_risk_json(s: &Scenario, sim: &Simulation) -> Value {
-    (0..sim.result.points.len())
-        .find_map(|i| {
-            judge(s, &sim.result.points[i], sim.support[i], 0.0)
-                .map(|r| json!({"i": i, "reason": r.as_str()}))
-        })
+fn first_risk_json(b: &Build, sim: &Simulation) -> Value {
+    sim.first_risk(&b.criteria)
+        .map(|(i, r)| json!({"i": i, "reason": r.as_str()}))
         .unwrap_or(Value::Null)
 }

@@ -1,16 +1,17 @@
 //! `waamtwin plan SCENARIO -o DIR [--strategy ctpp|planar]`: plan.json, generators.csv, path.csv.
 
-use crate::beads::{Beads, beads};
 use crate::cli::Strategy;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
+use crate::pipeline::beads::{Bead, Beads};
+use crate::pipeline::{Build, plan};
 use crate::progress::Stage;
 use crate::scenario::Scenario;
 use bead_model::eq7;
 use bead_model::window::Modulation;
 use planner::mesh::Part;
-use planner::plan::{Plan, PlanParams, plan, range};
+use planner::plan::{Plan, range};
 use planner::planar;
 use serde_json::{Value, json};
 use std::fmt::Write;
@@ -19,23 +20,11 @@ use std::path::Path;
 /// Violations listed in plan.json; the total is always given.
 const MAX_LISTED_VIOLATIONS: usize = 1000;
 
-pub fn params(s: &Scenario) -> PlanParams {
-    let p = &s.process;
-    PlanParams {
-        n_points: s.planner.n_points,
-        gap_max_mm: s.planner.gap_max_mm,
-        deposit_mm: p.deposit_m * 1e3,
-        deposit_min_mm: p.deposit_min_m * 1e3,
-        deposit_max_mm: p.deposit_max_m * 1e3,
-        tolerance_mm: s.planner.deposit_tolerance_mm,
-        nozzle: s.planner.nozzle,
-    }
-}
-
-/// Plan a scenario's part (CTPP). Errors of the part's shape (branching, too short) are input errors.
-pub fn plan_part(s: &Scenario, part: &Part) -> Result<Plan> {
+/// Plan a scenario's part (CTPP) and lay out its build. Errors of the part's shape (branching,
+/// too short) are input errors.
+pub fn build(s: &Scenario, part: &Part) -> Result<Build> {
     let _stage = Stage::start("planning the spiral");
-    plan(part, &params(s)).map_err(|e| Error::input(format!("plan: {e}")))
+    Ok(Build::new(plan(part, &s.plan_params())?, s.params()))
 }
 
 pub fn run(scenario: &Path, out: &Path, strategy: Strategy) -> Result<String> {
@@ -44,9 +33,9 @@ pub fn run(scenario: &Path, out: &Path, strategy: Strategy) -> Result<String> {
     let mut dir = RunDir::create(out)?;
     let line = match strategy {
         Strategy::Ctpp => {
-            let pl = plan_part(&s, &part)?;
-            write_plan(&mut dir, &s, &pl)?;
-            summary(&pl)
+            let b = build(&s, &part)?;
+            write_plan(&mut dir, &s, &b)?;
+            summary(&b.plan)
         }
         Strategy::Planar => write_planar(&mut dir, &s, &part)?,
     };
@@ -72,18 +61,18 @@ pub fn summary(pl: &Plan) -> String {
 }
 
 /// plan.json, generators.csv and path.csv of a CTPP plan.
-pub fn write_plan(dir: &mut RunDir, s: &Scenario, pl: &Plan) -> Result<()> {
-    let b = beads(s, pl);
+pub fn write_plan(dir: &mut RunDir, s: &Scenario, b: &Build) -> Result<()> {
+    let pl = &b.plan;
     let mut json = plan_json(s, pl);
-    json["bead"] = bead_json(s, pl, &b);
+    json["bead"] = bead_json(s, pl, &b.beads);
     dir.write_json("plan.json", &json)?;
     dir.write("generators.csv", generators_csv(pl).as_bytes())?;
-    dir.write("path.csv", path_csv(s, pl, &b).as_bytes())?;
+    dir.write("path.csv", path_csv(b).as_bytes())?;
     Ok(())
 }
 
 fn bead_json(s: &Scenario, pl: &Plan, b: &Beads) -> Value {
-    let r = |f: &dyn Fn(&crate::beads::Bead) -> f64| {
+    let r = |f: &dyn Fn(&Bead) -> f64| {
         let (lo, hi) = range(b.beads.iter().map(f));
         minmax(lo, hi)
     };
@@ -118,7 +107,7 @@ fn minmax(lo: f64, hi: f64) -> Value {
 }
 
 pub fn plan_json(s: &Scenario, pl: &Plan) -> Value {
-    let p = params(s);
+    let p = s.plan_params();
     let (glo, ghi) = pl.generator_length_range();
     let (dlo, dhi) = pl.deposit_range();
     let (slo, shi) = range(pl.points.iter().map(|q| q.step_mm));
@@ -195,7 +184,7 @@ pub fn path_row(
     csv: &mut String,
     i: usize,
     q: &planner::plan::PathPoint,
-    bead: &crate::beads::Bead,
+    bead: &Bead,
     t_s: f64,
     dwell_s: f64,
 ) {
@@ -218,10 +207,10 @@ pub fn path_row(
     );
 }
 
-fn path_csv(s: &Scenario, pl: &Plan, b: &Beads) -> String {
-    let deposits = crate::deposition::schedule(s, pl, b, &[]);
+fn path_csv(b: &Build) -> String {
+    let deposits = b.deposits();
     let mut csv = format!("{PATH_COLUMNS}\n");
-    for (i, (q, bead)) in pl.points.iter().zip(&b.beads).enumerate() {
+    for (i, (q, bead)) in b.plan.points.iter().zip(&b.beads.beads).enumerate() {
         path_row(&mut csv, i, q, bead, deposits[i].time, 0.0);
         csv.push('\n');
     }
@@ -230,7 +219,7 @@ fn path_csv(s: &Scenario, pl: &Plan, b: &Beads) -> String {
 
 /// The planar baseline: slices every h, the local deposit each asks for, and the top remainder.
 fn write_planar(dir: &mut RunDir, s: &Scenario, part: &Part) -> Result<String> {
-    let p = params(s);
+    let p = s.plan_params();
     let sl = planar::slice(part, p.deposit_mm);
     let all: Vec<f64> = sl.all_deposits().collect();
     let (lo, hi) = range(all.iter().copied());

@@ -213,20 +213,15 @@ fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
     let s = study.scenario(c)?;
     let part = crate::part::load_part(&s.part)?;
     let mut d = RunDir::create(dir)?;
-    let pl = super::plan::plan_part(&s, &part)?;
-    super::plan::write_plan(&mut d, &s, &pl)?;
+    let b = super::plan::build(&s, &part)?;
+    super::plan::write_plan(&mut d, &s, &b)?;
     let dwell = if study.command == "dwell" {
-        let b = crate::beads::beads(&s, &pl);
-        let deps = crate::deposition::schedule(&s, &pl, &b, &[]);
-        let settings = crate::deposition::wall_settings(&s, &deps, Vec::new());
-        let plan = crate::dwell::plan_dwells(&s, &pl, &deps, &settings)
-            .map_err(|e| Error::input(format!("thermal: {e}")))?;
-        plan.dwell_s
+        b.plan_dwells()?.dwell_s
     } else {
-        vec![0.0; pl.points.len()]
+        vec![0.0; b.plan.points.len()]
     };
-    let sim = super::simulate::simulate(&s, &pl, &dwell, 0)?;
-    super::simulate::write_thermal(&mut d, &s, &pl, &sim, &dwell)?;
+    let sim = b.simulate(&dwell, 0)?;
+    super::simulate::write_thermal(&mut d, &b, &sim)?;
     let overrides: serde_json::Map<String, Value> = c
         .overrides
         .iter()

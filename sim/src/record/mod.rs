@@ -7,7 +7,8 @@
 //! hold by construction.
 //!
 //! Sizes stay bounded on long builds: fields are kept at most `[output] frames` times, and fewer
-//! when the path is long ([`frame_times`]); the torch is sampled at most [`TORCH_SAMPLES`] times.
+//! when the path is long ([`crate::pipeline::frame_times`]); the torch is sampled at most
+//! [`TORCH_SAMPLES`] times.
 
 mod colour;
 mod foxglove;
@@ -22,10 +23,7 @@ pub use scene::{Event, Frame, Level, PointRecord, Probe, Run, Scene, probe};
 
 use crate::error::Result;
 use crate::output::RunDir;
-use crate::scenario::Scenario;
-
-/// Most field values kept over a run, frames × path points (16 MB of f32 per sink).
-pub const FIELD_BUDGET: usize = 4_000_000;
+use crate::scenario::RawOutput;
 
 /// Most torch poses logged over a run.
 pub const TORCH_SAMPLES: usize = 20_000;
@@ -58,16 +56,8 @@ pub trait Sink {
     fn finish(self: Box<Self>, scene: &Scene, dir: &mut RunDir) -> Result<()>;
 }
 
-/// When to keep the field: evenly over the build, at most `frames` times and at most
-/// [`FIELD_BUDGET`] values in all, always including the end of the build.
-pub fn frame_times(build_s: f64, n_points: usize, frames: usize) -> Vec<f64> {
-    let n = frames.min(FIELD_BUDGET / n_points.max(1)).max(1);
-    (1..=n).map(|k| build_s * k as f64 / n as f64).collect()
-}
-
-/// The sinks the scenario switches on.
-pub fn sinks(s: &Scenario) -> Vec<Box<dyn Sink>> {
-    let o = &s.output;
+/// The sinks `[output]` switches on.
+pub fn sinks(o: &RawOutput) -> Vec<Box<dyn Sink>> {
     let mut v: Vec<Box<dyn Sink>> = Vec::new();
     if o.rerun {
         v.push(Box::new(rerun_sink::RerunSink::default()));
@@ -110,16 +100,4 @@ pub fn record(scene: &Scene, mut sinks: Vec<Box<dyn Sink>>, dir: &mut RunDir) ->
         s.finish(scene, dir)?;
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn frames_are_bounded_and_end_at_the_build() {
-        let t = super::frame_times(100.0, 10, 50);
-        assert_eq!(t.len(), 50);
-        assert_eq!(*t.last().unwrap(), 100.0);
-        let t = super::frame_times(100.0, 1_000_000, 50);
-        assert_eq!(t.len(), 4);
-    }
 }

@@ -1,14 +1,11 @@
 //! The scene a run shows, built once from the plan and the simulation: plain data in the
 //! interface units (mm, s, °C, W), so that every sink reads the same numbers.
 
-use crate::beads::Beads;
-use crate::commands::simulate::{Simulation, layers};
-use crate::risk::judge;
+use crate::pipeline::{Build, Simulation};
 use crate::scenario::Scenario;
 use planner::mesh::TriMesh;
 use planner::plan::Plan;
-
-const C: f64 = 273.15;
+use thermal::ZERO_CELSIUS_K as C;
 
 /// Per path point, in deposition order.
 #[derive(Debug, Clone, PartialEq)]
@@ -116,10 +113,8 @@ pub struct Run<'a> {
     pub s: &'a Scenario,
     pub title: &'a str,
     pub part: &'a TriMesh,
-    pub plan: &'a Plan,
-    pub beads: &'a Beads,
+    pub build: &'a Build,
     pub sim: &'a Simulation,
-    pub dwell_s: &'a [f64],
     /// The run without dwells, where dwells were planned.
     pub before: Option<&'a Simulation>,
     pub planar_deposits_mm: Option<Vec<f64>>,
@@ -127,8 +122,9 @@ pub struct Run<'a> {
 
 impl Scene {
     pub fn build(r: Run<'_>) -> Scene {
-        let (s, pl, sim) = (r.s, r.plan, r.sim);
-        let dwell = |i: usize| r.dwell_s.get(i).copied().unwrap_or(0.0);
+        let (s, b, sim) = (r.s, r.build, r.sim);
+        let pl = &b.plan;
+        let risks = sim.risks(&b.criteria);
         let points: Vec<PointRecord> = pl
             .points
             .iter()
@@ -141,34 +137,37 @@ impl Scene {
                 generator: q.generator,
                 deposit_mm: q.deposit_mm,
                 preheat_c: sim.result.points[i].preheat - C,
-                power_w: r.beads.beads[i].power_w,
-                dwell_s: dwell(i),
-                risk: judge(s, &sim.result.points[i], sim.support[i], 0.0).map(|k| k.as_str()),
+                power_w: b.beads.beads[i].power_w,
+                dwell_s: sim.dwell_s[i],
+                risk: risks[i].map(|k| k.as_str()),
             })
             .collect();
         let frames = frames(sim);
         let probe = probe(sim);
-        let centre = crate::deposition::plate_centre(&sim.deposits).map(|c| c * 1e3);
+        let centre = crate::pipeline::deposition::plate_centre(&sim.deposits).map(|c| c * 1e3);
         Scene {
             title: r.title.to_string(),
             scenario: s.to_json(),
             part: r.part.clone(),
             plate_centre_mm: centre,
-            plate_size_mm: s.thermal.plate_m.map(|v| v * 1e3),
+            plate_size_mm: b.params.thermal.plate_m.map(|v| v * 1e3),
             generators: pl
                 .generators
                 .iter()
                 .map(|g| g.points.iter().map(|p| [p.x, p.y, p.z]).collect())
                 .collect(),
             wall: wall(points.len(), pl.generators.len()),
-            layers: layer_records(pl, sim, r.dwell_s),
-            layers_without_dwells: r.before.map(|b| layer_records(pl, b, &[])),
-            events: events(s, pl, &points, r.before),
+            layers: layer_records(b, sim),
+            layers_without_dwells: r.before.map(|before| layer_records(b, before)),
+            events: events(b, &points, r.before),
             frames,
             probe,
-            interpass_c: s.dwell.interpass_max_k - C,
-            ambient_c: s.thermal.ambient_k - C,
-            window_mm: [s.process.deposit_min_m * 1e3, s.process.deposit_max_m * 1e3],
+            interpass_c: b.params.dwell.interpass_max_k - C,
+            ambient_c: b.params.thermal.ambient_k - C,
+            window_mm: [
+                b.params.process.deposit_min_m * 1e3,
+                b.params.process.deposit_max_m * 1e3,
+            ],
             planar_deposits_mm: r.planar_deposits_mm,
             build_s: sim.deposits.last().map_or(0.0, |d| d.time),
             points,
@@ -176,8 +175,8 @@ impl Scene {
     }
 }
 
-fn layer_records(pl: &Plan, sim: &Simulation, dwell_s: &[f64]) -> Vec<LayerRecord> {
-    layers(pl, sim, dwell_s)
+fn layer_records(b: &Build, sim: &Simulation) -> Vec<LayerRecord> {
+    b.layers(sim)
         .into_iter()
         .map(|l| LayerRecord {
             layer: l.layer,
@@ -201,12 +200,9 @@ pub fn wall(n_points: usize, n_generators: usize) -> Vec<[u32; 3]> {
         .collect()
 }
 
-/// The kept snapshots of the thin-wall field, per path point.
+/// The kept snapshots of the field, per path point.
 fn frames(sim: &Simulation) -> Vec<Frame> {
     let r = &sim.result;
-    if r.node_of_deposit.len() != sim.deposits.len() {
-        return Vec::new();
-    }
     r.snapshots
         .iter()
         .map(|snap| {
@@ -217,7 +213,7 @@ fn frames(sim: &Simulation) -> Vec<Frame> {
                 temperature_c: (0..sim.deposits.len())
                     .map(|i| {
                         if i < laid {
-                            (snap.temperature[r.node_of_deposit[i]] - C) as f32
+                            (snap.temperature[i] - C) as f32
                         } else {
                             f32::NAN
                         }
@@ -234,30 +230,22 @@ pub fn probe(sim: &Simulation) -> Option<Probe> {
     let point = sim.deposits.len() / 2;
     let laid = sim.deposits.get(point)?.time;
     let r = &sim.result;
-    if r.node_of_deposit.len() != sim.deposits.len() {
-        return None;
-    }
     let frame = r.snapshots.iter().position(|f| f.time + 1e-9 >= laid)?;
     let snap = &r.snapshots[frame];
     Some(Probe {
         point,
         frame,
         t_s: snap.time,
-        temperature_c: snap.temperature[sim.result.node_of_deposit[point]] - C,
+        temperature_c: snap.temperature[point] - C,
     })
 }
 
 /// Overheating found, dwells inserted (each an arc stop and restart), nozzle collisions.
-fn events(
-    s: &Scenario,
-    pl: &Plan,
-    points: &[PointRecord],
-    before: Option<&Simulation>,
-) -> Vec<Event> {
+fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec<Event> {
+    let pl: &Plan = &b.plan;
     let mut ev = Vec::new();
-    if let Some(b) = before
-        && let Some(i) = (0..b.result.points.len())
-            .find(|&i| judge(s, &b.result.points[i], b.support[i], 0.0).is_some())
+    if let Some(before) = before
+        && let Some((i, _)) = before.first_risk(&b.criteria)
     {
         ev.push(Event {
             t_s: 0.0,
@@ -265,8 +253,8 @@ fn events(
             text: format!(
                 "without dwells: overheating from point {i} (layer {}), preheat {:.0} °C over the {:.0} °C limit",
                 pl.points[i].layer,
-                b.result.points[i].preheat - C,
-                s.dwell.interpass_max_k - C
+                before.result.points[i].preheat - C,
+                b.params.dwell.interpass_max_k - C
             ),
         });
     }

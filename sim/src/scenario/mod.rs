@@ -7,18 +7,22 @@ mod raw;
 pub use raw::*;
 
 use crate::error::{Error, Result};
+pub use crate::pipeline::params::{
+    BeadSettings, DwellSettings, Material, Params, Process, ThermalModel, ThermalSettings,
+};
 use bead_model::as_built::HotMetalLaw;
 use bead_model::heat_input::{ArcPower, SynergicLine};
 use bead_model::section::Section;
-use bead_model::window::{Modulation, Window};
+use bead_model::window::Modulation;
 use planner::mesh::LowerLoop;
+use planner::plan::PlanParams;
 use planner::shapes::Shape;
 use std::fmt::Display;
 use std::path::{Path, PathBuf};
+use thermal::ZERO_CELSIUS_K as KELVIN;
 
 const MM: f64 = 1e-3;
 const M_MIN: f64 = 1.0 / 60.0;
-const KELVIN: f64 = 273.15;
 
 /// Where the part's mid-surface comes from.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,121 +35,6 @@ pub enum PartSource {
 pub struct PartSpec {
     pub source: PartSource,
     pub lower: LowerLoop,
-}
-
-/// Deposition process, SI.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Process {
-    pub modulation: Modulation,
-    pub power: ArcPower,
-    pub section: Section,
-    pub wire_diameter_m: f64,
-    pub bead_width_m: f64,
-    pub travel_speed_m_s: f64,
-    pub deposit_m: f64,
-    pub deposit_min_m: f64,
-    pub deposit_max_m: f64,
-    pub wfs_min_m_s: f64,
-    pub wfs_max_m_s: f64,
-    pub travel_min_m_s: f64,
-    pub travel_max_m_s: f64,
-    pub arc_power_w: f64,
-    pub efficiency: f64,
-}
-
-/// Material constants, SI (temperatures in K).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Material {
-    pub name: String,
-    pub density_kg_m3: f64,
-    pub specific_heat_j_kgk: f64,
-    pub conductivity_w_mk: f64,
-    pub surface_tension_n_m: f64,
-    pub melting_k: f64,
-}
-
-impl Material {
-    /// G3Si (ER70S-6 class) with the skeleton-AM paper's Table 1 (Radel et al. 2019):
-    /// ρ = 7800 kg/m³, σ = 1.6 N/m, melting 1700 K, diffusivity 14e-6 m²/s. c_p = 480 J/(kg K) is
-    /// a room-temperature value for low-carbon steel; k then follows from α = k/(ρ c_p).
-    pub fn g3si() -> Material {
-        let (rho, cp, alpha) = (7800.0, 480.0, 14e-6);
-        Material {
-            name: "G3Si".into(),
-            density_kg_m3: rho,
-            specific_heat_j_kgk: cp,
-            conductivity_w_mk: alpha * rho * cp,
-            surface_tension_n_m: 1.6,
-            melting_k: 1700.0,
-        }
-    }
-
-    pub fn diffusivity_m2_s(&self) -> f64 {
-        self.conductivity_w_mk / (self.density_kg_m3 * self.specific_heat_j_kgk)
-    }
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ThermalModel {
-    Fe,
-    Voxel,
-}
-
-/// Thermal boundary conditions and model settings, SI (K).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ThermalSettings {
-    pub table_contact_w_m2k: f64,
-    pub plate_cell_m: f64,
-    pub node_m: f64,
-    pub deposit_k: f64,
-    pub footprint_m: f64,
-    pub hot_threshold_k: f64,
-    /// Temperature-dependent G3Si tables, or the material's constants.
-    pub temperature_dependent: bool,
-    pub voxel_m: f64,
-    pub model: ThermalModel,
-    pub ambient_k: f64,
-    pub convection_w_m2k: f64,
-    pub emissivity: f64,
-    pub plate_m: [f64; 3],
-    pub lead_m: f64,
-}
-
-#[derive(Debug, Clone, PartialEq)]
-pub struct DwellSettings {
-    pub interpass_max_k: f64,
-    /// None: that criterion is off.
-    pub interpass: bool,
-    pub strength_loss_k: Option<f64>,
-    pub humping: bool,
-    pub bond: bool,
-    pub max_dwell_s: f64,
-    pub margin_k: f64,
-    pub count_weight_s: f64,
-    /// Radius of the closing zone around a closing point, mm.
-    pub closing_zone_mm: f64,
-}
-
-/// Bead-model settings beyond the process: risk threshold and the hot-metal law.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BeadSettings {
-    pub bond_max: f64,
-    pub hot_metal: HotMetalLaw,
-    pub stickout_m: f64,
-}
-
-impl Process {
-    /// The machine limits as a process window.
-    pub fn window(&self) -> Window {
-        Window {
-            wire_diameter: self.wire_diameter_m,
-            width: self.bead_width_m,
-            wfs_min: self.wfs_min_m_s,
-            wfs_max: self.wfs_max_m_s,
-            travel_min: self.travel_min_m_s,
-            travel_max: self.travel_max_m_s,
-        }
-    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -619,6 +508,31 @@ impl Scenario {
         })
     }
 
+    /// What the engine needs beyond the plan.
+    pub fn params(&self) -> Params {
+        Params {
+            process: self.process.clone(),
+            material: self.material.clone(),
+            thermal: self.thermal.clone(),
+            dwell: self.dwell.clone(),
+            bead: self.bead.clone(),
+        }
+    }
+
+    /// What the CTPP planner needs.
+    pub fn plan_params(&self) -> PlanParams {
+        let p = &self.process;
+        PlanParams {
+            n_points: self.planner.n_points,
+            gap_max_mm: self.planner.gap_max_mm,
+            deposit_mm: p.deposit_m * 1e3,
+            deposit_min_mm: p.deposit_min_m * 1e3,
+            deposit_max_mm: p.deposit_max_m * 1e3,
+            tolerance_mm: self.planner.deposit_tolerance_mm,
+            nozzle: self.planner.nozzle,
+        }
+    }
+
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(&self.raw).unwrap_or(serde_json::Value::Null)
     }
@@ -878,7 +792,7 @@ fn shape(name: &str, p: &RawPart, c: &Checker) -> Result<Shape> {
 
 fn material(m: &RawMaterial, c: &Checker) -> Result<Material> {
     let mut mat = match m.preset.as_str() {
-        "G3Si" | "g3si" => Material::g3si(),
+        "G3Si" | "g3si" => Material::preset(&thermal::material::G3SI),
         other => return Err(c.fail("material", "preset", format!("\"{other}\""), "\"G3Si\"")),
     };
     if let Some(v) = m.density_kg_m3 {

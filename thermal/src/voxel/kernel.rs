@@ -15,6 +15,7 @@ use crate::material::Material;
 /// dx·(Φ_j − Φ_i), exact for steady 1-D conduction whatever k(T) does (Carslaw and Jaeger 1959
 /// §1.7): the heat equation ρ·∂h/∂t = ∇²Φ becomes a linear stencil on Φ, and the only
 /// nonlinearity left is one table read per voxel. Interpolation error below 0.01 K.
+#[derive(Clone)]
 pub(super) struct Tables {
     h0: f32,
     inv_dh: f32,

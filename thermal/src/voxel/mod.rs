@@ -9,13 +9,18 @@
 
 mod kernel;
 
+use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Ledger, SIGMA, Surroundings};
+use crate::run::{
+    Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, replay,
+};
 use crate::schedule::{Deposit, validate};
-use crate::wall::{Plate, PointResult, Snapshot};
+use crate::wall::read_fractions;
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// Active voxels per chunk: the unit of the ledger's partial sums, so results do not depend on
 /// how chunks are spread over threads.
@@ -39,28 +44,6 @@ pub struct VoxelSettings {
     pub snapshot_times: Vec<f64>,
     /// Stability margin on the explicit step (≤ 1).
     pub courant: f64,
-}
-
-#[derive(Debug, Clone)]
-pub struct VoxelResult {
-    /// Per deposit, as the thin wall gives them: the preheat (mean temperature of the voxels it
-    /// is laid on, read `lead` upstream); the peak and the time above the threshold of its own
-    /// metal's mean temperature (a deposit that switched on no voxel of its own shares its
-    /// predecessor's); the pool behind the torch when it was laid (the deposits back from it
-    /// whose metal is above the solidus: their length, and the half sphere of their volume).
-    pub points: Vec<PointResult>,
-    /// Deposits whose heat did not cover melting their own metal (source clamped at zero).
-    pub underpowered: usize,
-    /// The field at the settings' snapshot times, one temperature per deposit (K): the mean of
-    /// its metal once laid, ambient before.
-    pub snapshots: Vec<Snapshot>,
-    pub ledger: Ledger,
-    pub stored: f64,
-    pub balance_error: f64,
-    pub voxels: usize,
-    pub steps: usize,
-    /// Voxel updates performed (steps × active voxels).
-    pub updates: u64,
 }
 
 /// Goldak double-ellipsoid parameters relative to the bead: half-width a = W/2, depth b = H,
@@ -88,6 +71,7 @@ impl Goldak {
     }
 }
 
+#[derive(Clone)]
 pub struct VoxelModel {
     settings: VoxelSettings,
     tables: Tables,
@@ -154,7 +138,7 @@ const FACES: [(isize, isize, isize); 6] = [
 ];
 
 impl VoxelModel {
-    pub fn new(deps: &[Deposit], s: &VoxelSettings) -> Result<VoxelModel, String> {
+    pub fn new(deps: &[Deposit], s: &VoxelSettings) -> Result<VoxelModel, ThermalError> {
         validate(deps)?;
         let dx = s.size;
         let p = &s.plate;
@@ -587,82 +571,18 @@ impl VoxelModel {
         out.extend(w.iter().map(|&(v, wt)| (v, (power * wt / total) as f32)));
     }
 
-    /// Run the schedule. Each deposit's metal arrives at the deposit temperature and the rest of
-    /// its heat goes in through the Goldak source over its arc time.
-    pub fn run(mut self, deps: &[Deposit]) -> VoxelResult {
-        let s = self.settings.clone();
-        let dt_max = self.stable_step();
-        let read_at = crate::wall::read_times(deps, s.lead);
-        let mut order: Vec<usize> = (0..deps.len()).collect();
-        order.sort_by(|&a, &b| read_at[a].total_cmp(&read_at[b]));
-        let mut next = 0;
-        let start = PointResult {
-            peak: s.surroundings.ambient_k,
-            ..PointResult::default()
-        };
-        let mut points = vec![start; deps.len()];
-        let mut underpowered = 0;
-        let mut snapshots = Vec::new();
-        let mut src = Vec::new();
-        let mut now = deps.first().map_or(0.0, |d| d.arc_start());
-        self.probe(deps, &read_at, &order, &mut next, now, &mut points);
-        for i in 0..deps.len() {
-            let d = &deps[i];
-            // Dwell.
-            while now < d.arc_start() - 1e-9 {
-                let dt = dt_max.min(d.arc_start() - now);
-                self.step(dt, &[]);
-                now += dt;
-                self.observe(i, dt, &mut points);
-                self.keep(i, now, &mut snapshots);
-                self.probe(deps, &read_at, &order, &mut next, now, &mut points);
-            }
-            let before = self.ledger.deposited;
-            self.lay(deps, i);
-            // The arc's heat less what the new metal took.
-            let rest = d.heat - (self.ledger.deposited - before);
-            underpowered += usize::from(rest < 0.0);
-            self.source(deps, i, rest.max(0.0), &mut src);
-            let mut left = d.arc_time;
-            while left > 1e-12 {
-                let dt = dt_max.min(left);
-                self.step(dt, &src);
-                now += dt;
-                left -= dt;
-                self.observe(i + 1, dt, &mut points);
-                self.keep(i + 1, now, &mut snapshots);
-                self.probe(deps, &read_at, &order, &mut next, now, &mut points);
-            }
-            (points[i].pool_length, points[i].pool_radius) = self.pool(deps, i);
-        }
-        // A deposit with no voxel of its own shares the metal of the one before it.
-        for i in 1..deps.len() {
-            if self.laid[i].is_empty() {
-                points[i].peak = points[i - 1].peak;
-                points[i].time_above = points[i - 1].time_above;
-            }
-        }
-        let stored: f64 = self
-            .h
-            .iter()
-            .map(|&h| self.mass() * (h as f64 - self.h_ambient))
-            .sum();
-        let e = self.ledger.energy_in();
-        VoxelResult {
-            points,
-            underpowered,
-            snapshots,
-            ledger: self.ledger,
-            stored,
-            balance_error: if e > 0.0 {
-                (e - stored - self.ledger.lost()) / e
-            } else {
-                0.0
-            },
-            voxels: self.h.len(),
-            steps: self.steps,
-            updates: self.updates,
-        }
+    /// Run the schedule as its times say (dwells are the gaps between arcs).
+    pub fn run(self, deps: &[Deposit]) -> Result<RunResult, ThermalError> {
+        let mut run = VoxelRun::new(self, deps)?;
+        replay(&mut run, deps)?;
+        Ok(run.finish())
+    }
+
+    /// The centre of voxel v, m.
+    fn centre_of(&self, v: u32) -> [f64; 3] {
+        let f = self.cell[v as usize];
+        let (nx, ny) = (self.dims[0], self.dims[1]);
+        self.centre(f % nx, (f / nx) % ny, f / (nx * ny))
     }
 
     /// Peak and time above the threshold of the metal of deposits 0..laid, after a step of dt.
@@ -721,20 +641,246 @@ impl VoxelModel {
         let volume = voxels as f64 * self.settings.size.powi(3);
         (length, (3.0 * volume / (2.0 * std::f64::consts::PI)).cbrt())
     }
+}
 
-    fn probe(
-        &self,
-        deps: &[Deposit],
-        read_at: &[f64],
-        order: &[usize],
-        next: &mut usize,
-        now: f64,
-        points: &mut [PointResult],
-    ) {
-        while *next < order.len() && read_at[order[*next]] <= now + 1e-9 {
-            let i = order[*next];
-            points[i].preheat = self.mean_t(&self.beneath(deps, i));
-            *next += 1;
+/// A voxel run in progress, one deposit at a time (the [`HeatRun`] contract). Cloning it is a
+/// checkpoint: the active set is copied whole.
+#[derive(Clone)]
+pub struct VoxelRun {
+    model: VoxelModel,
+    deps: Arc<Vec<Deposit>>,
+    /// The stable explicit step, s.
+    dt_max: f64,
+    /// Per deposit, the preheats read during its arc: (point, fraction of the arc), as the
+    /// thin wall reads them (dwell-independent: the torch is `lead` upstream along the path).
+    probes_at: Arc<Vec<Vec<(usize, f64)>>>,
+    /// Per deposit, the deposit during whose arc its preheat is read.
+    read_at: Arc<Vec<Option<usize>>>,
+    points: Vec<PointResult>,
+    snapshots: Vec<Snapshot>,
+    underpowered: usize,
+    now: f64,
+    laid: usize,
+    /// The next preheat to read in the current deposit's list.
+    next_probe: usize,
+    source: Vec<(u32, f32)>,
+}
+
+impl VoxelRun {
+    /// Start a run; fails when the material leaves no stable step (no heat capacity, say).
+    pub fn new(model: VoxelModel, deps: &[Deposit]) -> Result<VoxelRun, ThermalError> {
+        let now = deps.first().map_or(0.0, |d| d.arc_start());
+        let dt_max = model.stable_step();
+        if !(dt_max.is_finite() && dt_max > 0.0) {
+            return Err(ThermalError::NonFinite {
+                time_s: now,
+                position_mm: deps
+                    .first()
+                    .map_or([0.0; 3], |d| d.position.map(|x| x * 1e3)),
+                what: "stable time step (s)",
+                value: dt_max,
+            });
+        }
+        let start = PointResult {
+            peak: model.settings.surroundings.ambient_k,
+            ..PointResult::default()
+        };
+        let mut points = vec![start; deps.len()];
+        let mut probes_at = vec![Vec::new(); deps.len()];
+        let reads = read_fractions(deps, model.settings.lead);
+        for (k, &r) in reads.iter().enumerate() {
+            match r {
+                // Pushed in path order, which is arc order: the torch passes k's reading
+                // point before k + 1's.
+                Some((j, f)) => probes_at[j].push((k, f)),
+                // Read before the path starts: the plate as it is.
+                None => points[k].preheat = model.mean_t(&model.beneath(deps, k)),
+            }
+        }
+        Ok(VoxelRun {
+            dt_max,
+            now,
+            deps: Arc::new(deps.to_vec()),
+            probes_at: Arc::new(probes_at),
+            read_at: Arc::new(reads.iter().map(|r| r.map(|(j, _)| j)).collect()),
+            points,
+            snapshots: Vec::new(),
+            underpowered: 0,
+            laid: 0,
+            next_probe: 0,
+            source: Vec::new(),
+            model,
+        })
+    }
+
+    /// Voxels switched on so far.
+    pub fn voxels(&self) -> usize {
+        self.model.active()
+    }
+
+    /// One step of `dt` with the current source, and what the results track.
+    fn advance(&mut self, dt: f64, source_on: bool) {
+        let source: &[(u32, f32)] = if source_on { &self.source } else { &[] };
+        self.model.step(dt, source);
+        self.now += dt;
+        let laid = self.laid + usize::from(source_on);
+        self.model.observe(laid, dt, &mut self.points);
+        self.model.keep(laid, self.now, &mut self.snapshots);
+    }
+
+    /// The preheats read during deposit i's arc once `elapsed` of it has passed (those not
+    /// read yet: `next_probe` counts them in `probes_at[i]`, which is in arc order).
+    fn read(&mut self, i: usize, elapsed: f64) {
+        let arc = self.deps[i].arc_time;
+        let probes = &self.probes_at[i];
+        while let Some(&(k, f)) = probes.get(self.next_probe)
+            && f * arc <= elapsed + 1e-9
+        {
+            self.points[k].preheat = self.model.mean_t(&self.model.beneath(&self.deps, k));
+            self.next_probe += 1;
+        }
+    }
+
+    /// A numerical failure shows as a non-finite temperature or loss: checked on the metal of
+    /// `deposit` and in the ledger, and on every voxel when either is off or after a cooling.
+    fn check(&self, deposit: Option<usize>) -> Result<(), ThermalError> {
+        let m = &self.model;
+        let fine = |i: usize| m.mean_t(&m.laid[i]).is_finite() && m.ledger.lost().is_finite();
+        if deposit.is_some_and(fine) {
+            return Ok(());
+        }
+        if let Some(v) = m.t.iter().position(|t| !t.is_finite()) {
+            return Err(ThermalError::NonFinite {
+                time_s: self.now,
+                position_mm: m.centre_of(v as u32).map(|x| x * 1e3),
+                what: "temperature (K)",
+                value: m.t[v] as f64,
+            });
+        }
+        if !m.ledger.lost().is_finite() {
+            let at = deposit.map_or([f64::NAN; 3], |i| self.deps[i].position);
+            return Err(ThermalError::NonFinite {
+                time_s: self.now,
+                position_mm: at.map(|x| x * 1e3),
+                what: "heat lost (J)",
+                value: m.ledger.lost(),
+            });
+        }
+        Ok(())
+    }
+}
+
+impl HeatRun for VoxelRun {
+    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError> {
+        self.cool(dwell)?;
+        self.next_probe = 0;
+        self.read(i, 0.0);
+        let d = self.deps[i];
+        let before = self.model.ledger.deposited;
+        self.model.lay(&self.deps, i);
+        // The arc's heat less what the new metal took.
+        let rest = d.heat - (self.model.ledger.deposited - before);
+        self.underpowered += usize::from(rest < 0.0);
+        let mut source = std::mem::take(&mut self.source);
+        self.model.source(&self.deps, i, rest.max(0.0), &mut source);
+        self.source = source;
+        let (mut left, mut elapsed) = (d.arc_time, 0.0);
+        while left > 1e-12 {
+            let dt = self.dt_max.min(left);
+            self.advance(dt, true);
+            left -= dt;
+            elapsed += dt;
+            self.read(i, elapsed);
+        }
+        (self.points[i].pool_length, self.points[i].pool_radius) = self.model.pool(&self.deps, i);
+        self.laid = i + 1;
+        self.check(Some(i))
+    }
+
+    fn cool(&mut self, duration: f64) -> Result<(), ThermalError> {
+        if duration <= 1e-9 {
+            return Ok(());
+        }
+        let end = self.now + duration;
+        while self.now < end - 1e-9 {
+            let dt = self.dt_max.min(end - self.now);
+            self.advance(dt, false);
+        }
+        self.check(None)
+    }
+
+    fn points(&self) -> &[PointResult] {
+        &self.points
+    }
+
+    /// The thin wall's rule without its nodes: on the plate, on an earlier revolution, or on
+    /// metal laid when (or after) this point's preheat was read, or within a bead width of the
+    /// torch then, where the reading is the arc's own heat.
+    fn support(&self, i: usize) -> Support {
+        let d = &self.deps[i];
+        match (d.support, self.read_at[i]) {
+            (None, _) => Support::Plate,
+            (Some(s), Some(r))
+                if s >= r || norm(sub(self.deps[s].position, self.deps[r].position)) < d.width =>
+            {
+                Support::JustLaid
+            }
+            _ => Support::Deposit,
+        }
+    }
+
+    fn laid(&self) -> usize {
+        self.laid
+    }
+
+    fn now(&self) -> f64 {
+        self.now
+    }
+
+    fn temperature_beneath(&self, i: usize) -> f64 {
+        self.model.mean_t(&self.model.beneath(&self.deps, i))
+    }
+
+    fn temperature_of(&self, i: usize) -> f64 {
+        self.model.mean_t(&self.model.laid[i])
+    }
+
+    fn cooling_steps(&self) -> CoolingSteps {
+        CoolingSteps::Fixed { step: self.dt_max }
+    }
+
+    fn finish(mut self) -> RunResult {
+        let support = (0..self.deps.len()).map(|i| self.support(i)).collect();
+        let m = &self.model;
+        // A deposit with no voxel of its own shares the metal of the one before it.
+        for i in 1..self.points.len() {
+            if m.laid[i].is_empty() {
+                self.points[i].peak = self.points[i - 1].peak;
+                self.points[i].time_above = self.points[i - 1].time_above;
+            }
+        }
+        let stored: f64 =
+            m.h.iter()
+                .map(|&h| m.mass() * (h as f64 - m.h_ambient))
+                .sum();
+        let e = m.ledger.energy_in();
+        RunResult {
+            points: self.points,
+            support,
+            snapshots: self.snapshots,
+            ledger: m.ledger,
+            stored,
+            balance_error: if e > 0.0 {
+                (e - stored - m.ledger.lost()) / e
+            } else {
+                0.0
+            },
+            underpowered: self.underpowered,
+            steps: m.steps,
+            cells: Cells::Voxel {
+                voxels: m.h.len(),
+                updates: m.updates,
+            },
         }
     }
 }
@@ -836,7 +982,7 @@ mod tests {
         let run = |simd| {
             let mut m = VoxelModel::new(&deps, &settings).unwrap();
             m.simd = simd;
-            m.run(&deps)
+            m.run(&deps).unwrap()
         };
         let (plain, vector) = (run(false), run(true));
         let worst = |f: fn(&PointResult) -> f64| {
@@ -867,10 +1013,18 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            pool.install(|| VoxelModel::new(&deps, &settings).unwrap().run(&deps))
+            pool.install(|| {
+                VoxelModel::new(&deps, &settings)
+                    .unwrap()
+                    .run(&deps)
+                    .unwrap()
+            })
         };
         let (one, two) = (run(1), run(2));
-        assert!(one.voxels > 2 * CHUNKS_PER_TASK * CHUNK);
+        let Cells::Voxel { voxels, .. } = one.cells else {
+            unreachable!("a voxel run")
+        };
+        assert!(voxels > 2 * CHUNKS_PER_TASK * CHUNK);
         assert_eq!(one.points, two.points);
         assert_eq!(one.ledger, two.ledger);
         assert_eq!(one.stored.to_bits(), two.stored.to_bits());

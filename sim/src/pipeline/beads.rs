@@ -2,7 +2,7 @@
 //! (Eq.7 under the scenario's modulation), the arc power and heat input, and the Bond number of
 //! the deposit; and the points the process window cannot lay.
 
-use crate::scenario::Scenario;
+use super::params::{Material, Process};
 use bead_model::bond::{bond_number, tilt_from_vertical};
 use bead_model::heat_input::energy_per_length;
 use bead_model::section::Section;
@@ -21,6 +21,7 @@ pub struct Bead {
     pub tilt_rad: f64,
 }
 
+#[derive(Debug, Clone)]
 pub struct Beads {
     pub beads: Vec<Bead>,
     /// Path points whose deposit the window cannot lay.
@@ -29,8 +30,7 @@ pub struct Beads {
     pub window_m: (f64, f64),
 }
 
-pub fn beads(s: &Scenario, pl: &Plan) -> Beads {
-    let p = &s.process;
+pub fn beads(p: &Process, m: &Material, pl: &Plan) -> Beads {
     let window = p.window();
     let heights: Vec<f64> = pl.points.iter().map(|q| q.deposit_mm * 1e-3).collect();
     let beads = pl
@@ -52,7 +52,7 @@ pub fn beads(s: &Scenario, pl: &Plan) -> Beads {
                 travel_m_s: travel,
                 power_w: power,
                 heat_j_m: energy_per_length(power, p.efficiency, travel),
-                bond: bond_number(s.material.density_kg_m3, r, s.material.surface_tension_n_m),
+                bond: bond_number(m.density_kg_m3, r, m.surface_tension_n_m),
                 tilt_rad: tilt_from_vertical([q.tool.x, q.tool.y, q.tool.z]),
             }
         })

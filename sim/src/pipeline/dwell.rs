@@ -13,11 +13,32 @@
 //!   heats its own substrate as it goes: no dwell before it can keep it under the limit, and
 //!   only these can.
 
-use crate::risk::{Risk, judge};
-use crate::scenario::Scenario;
+use super::params::DwellSettings;
+use super::risk::{Criteria, Risk, judge};
 use planner::plan::Plan;
 use thermal::schedule::Deposit;
-use thermal::wall::{Support, WallModel, WallRun, WallSettings, read_points};
+use thermal::wall::read_points;
+use thermal::{CoolingSteps, HeatModel, HeatRun, Support, ThermalError};
+
+/// What a dwell search judges by and aims for.
+#[derive(Debug, Clone, Copy)]
+pub struct Search<'a> {
+    pub criteria: &'a Criteria,
+    pub dwell: &'a DwellSettings,
+    /// The cooling of the excess above it is close to exponential, K.
+    pub ambient_k: f64,
+}
+
+impl Search<'_> {
+    fn judge(&self, p: &thermal::PointResult, support: Support, margin_k: f64) -> Option<Risk> {
+        judge(self.criteria, p, support, margin_k)
+    }
+
+    /// The temperature the search aims below, K.
+    fn target_k(&self) -> f64 {
+        self.dwell.interpass_max_k - self.dwell.margin_k
+    }
+}
 
 /// Tries of one revolution's dwell search before it gives up at the longest dwell.
 const MAX_TRIES: usize = 8;
@@ -69,8 +90,8 @@ pub struct DwellPlan {
 
 /// The first risky point among `points`, with the hottest preheat among them.
 fn check(
-    s: &Scenario,
-    run: &WallRun,
+    s: &Search,
+    run: &impl HeatRun,
     range: std::ops::Range<usize>,
     margin: f64,
 ) -> (Option<(usize, Risk)>, f64) {
@@ -83,7 +104,7 @@ fn check(
             hottest = hottest.max(p.preheat);
         }
         if first.is_none()
-            && let Some(r) = judge(s, p, support, margin)
+            && let Some(r) = s.judge(p, support, margin)
         {
             first = Some((i, r));
         }
@@ -92,33 +113,41 @@ fn check(
 }
 
 /// Lay deposits `from..to`, the first after `dwell` seconds.
-fn advance(run: &mut WallRun, deps: &[Deposit], from: usize, to: usize, dwell: f64) {
+fn advance(run: &mut impl HeatRun, from: usize, to: usize, dwell: f64) -> Result<(), ThermalError> {
     for i in from..to {
-        run.deposit(deps, i, if i == from { dwell } else { 0.0 });
+        run.deposit(i, if i == from { dwell } else { 0.0 })?;
     }
+    Ok(())
 }
 
-/// `base` cooled for `d` seconds with exactly the steps one `cool(d)` takes (1, 2, 4 … s up to
-/// the longest step, then what is left), carried on from the longest state in `cache` on that
-/// sequence: a search trying longer and longer dwells cools on instead of starting over, and
-/// the dwell it settles on gives the same state as a fresh run with that dwell.
-fn cooled(base: &WallRun, cache: &mut Vec<(f64, WallRun)>, d: f64) -> WallRun {
-    let (mut boundary, mut dt) = (0.0, 1.0f64);
-    while boundary + dt <= d + 1e-9 {
-        boundary += dt;
-        dt = (dt * 2.0).min(base.max_cooling_step());
-    }
+/// `base` cooled for `d` seconds with the steps one `cool(d)` takes (1, 2, 4 … s up to the
+/// longest step, then what is left; or equal steps), carried on from the longest state in
+/// `cache` on that sequence: a search trying longer and longer dwells cools on instead of
+/// starting over, and the dwell it settles on gives the state a fresh run with that dwell gives
+/// (the same bits on the thin wall; the voxel model's last partial step may round differently).
+fn cooled<R: HeatRun>(base: &R, cache: &mut Vec<(f64, R)>, d: f64) -> Result<R, ThermalError> {
+    let boundary = match base.cooling_steps() {
+        CoolingSteps::Doubling { max } => {
+            let (mut boundary, mut dt) = (0.0, 1.0f64);
+            while boundary + dt <= d + 1e-9 {
+                boundary += dt;
+                dt = (dt * 2.0).min(max);
+            }
+            boundary
+        }
+        CoolingSteps::Fixed { step } => ((d + 1e-9) / step).floor() * step,
+    };
     let (from, mut run) = cache
         .iter()
         .filter(|c| c.0 <= boundary)
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .map_or_else(|| (0.0, base.clone()), |c| (c.0, c.1.clone()));
     if boundary > from {
-        run.cool(boundary - from);
+        run.cool(boundary - from)?;
         cache.push((boundary, run.clone()));
     }
-    run.cool(d - boundary);
-    run
+    run.cool(d - boundary)?;
+    Ok(run)
 }
 
 /// Per deposit, the points whose preheat is read during its arc, and itself (its pool).
@@ -136,20 +165,17 @@ fn judged_at(deps: &[Deposit], lead: f64) -> Vec<Vec<usize>> {
 
 /// Point dwells over deposits `a..b` from `start`: each deposit is tried without a dwell, and
 /// given the shortest one that keeps the points judged at it safe when it is not.
-#[allow(clippy::too_many_arguments)]
-fn point_dwells(
-    s: &Scenario,
-    deps: &[Deposit],
+fn point_dwells<R: HeatRun>(
+    s: &Search,
     judged: &[Vec<usize>],
-    start: &WallRun,
-    a: usize,
-    b: usize,
+    start: &R,
+    range: std::ops::Range<usize>,
     simulated: &mut f64,
-) -> (WallRun, Vec<(usize, f64, Risk)>, Vec<usize>) {
+) -> Result<(R, Vec<(usize, f64, Risk)>, Vec<usize>), ThermalError> {
     let mut x = start.clone();
     let mut dwells = Vec::new();
     let mut unresolved = Vec::new();
-    let risk_at = |r: &WallRun, i: usize| -> (Option<Risk>, f64) {
+    let risk_at = |r: &R, i: usize| -> (Option<Risk>, f64) {
         let mut hottest = f64::NEG_INFINITY;
         let mut first = None;
         for &k in &judged[i] {
@@ -158,7 +184,7 @@ fn point_dwells(
                 hottest = hottest.max(p.preheat);
             }
             if first.is_none() {
-                first = judge(s, p, r.support(k), s.dwell.margin_k);
+                first = s.judge(p, r.support(k), s.dwell.margin_k);
             }
         }
         (first, hottest)
@@ -166,37 +192,35 @@ fn point_dwells(
     // Most deposits are safe and need no copy of the run: one laid on metal well below the
     // limit is laid in place; the run is copied every CHECKPOINT_EVERY deposits, and a
     // misprediction replays from the last copy.
-    let target = s.dwell.interpass_max_k - s.dwell.margin_k;
-    let (mut cp, mut cp_at) = (start.clone(), a);
-    let replay = |cp: &WallRun, from: usize, to: usize, dwells: &[(usize, f64, Risk)]| {
+    let target = s.target_k();
+    let (mut cp, mut cp_at) = (start.clone(), range.start);
+    let replay = |cp: &R, from: usize, to: usize, dwells: &[(usize, f64, Risk)]| {
         let mut y = cp.clone();
         for j in from..to {
             let d = dwells.iter().find(|p| p.0 == j).map_or(0.0, |p| p.1);
-            y.deposit(deps, j, d);
+            y.deposit(j, d)?;
         }
-        y
+        Ok::<R, ThermalError>(y)
     };
-    #[allow(clippy::needless_range_loop)] // i indexes deposits, judged lists and trials alike
-    for i in a..b {
+    for i in range {
         if i - cp_at >= CHECKPOINT_EVERY {
             cp = x.clone();
             cp_at = i;
         }
         let cool = judged[i].iter().all(|&k| {
-            x.support(k) != Support::Deposit
-                || x.temperatures()[x.below(k)] < target - PREDICT_MARGIN_K
+            x.support(k) != Support::Deposit || x.temperature_beneath(k) < target - PREDICT_MARGIN_K
         });
         if cool {
-            x.deposit(deps, i, 0.0);
+            x.deposit(i, 0.0)?;
             *simulated += 1.0;
             if risk_at(&x, i).0.is_none() {
                 continue;
             }
-            x = replay(&cp, cp_at, i, &dwells);
+            x = replay(&cp, cp_at, i, &dwells)?;
             *simulated += (i - cp_at) as f64;
         }
         let mut trial = x.clone();
-        trial.deposit(deps, i, 0.0);
+        trial.deposit(i, 0.0)?;
         *simulated += 1.0;
         let (risk, hot0) = risk_at(&trial, i);
         let Some(why) = risk else {
@@ -205,12 +229,12 @@ fn point_dwells(
         };
         let mut cache = Vec::new();
         let pass = shortest_dwell(s, 5.0, hot0, |d| {
-            let mut t = cooled(&x, &mut cache, d);
-            t.deposit(deps, i, 0.0);
+            let mut t = cooled(&x, &mut cache, d)?;
+            t.deposit(i, 0.0)?;
             *simulated += 1.0;
             let (r, hot) = risk_at(&t, i);
-            (t, r.is_none(), hot)
-        });
+            Ok((t, r.is_none(), hot))
+        })?;
         match pass {
             Some((d, t)) => {
                 dwells.push((i, d, why));
@@ -218,31 +242,33 @@ fn point_dwells(
             }
             None => {
                 let mut t = x.clone();
-                t.deposit(deps, i, s.dwell.max_dwell_s);
+                t.deposit(i, s.dwell.max_dwell_s)?;
                 dwells.push((i, s.dwell.max_dwell_s, why));
                 unresolved.extend(
                     judged[i]
                         .iter()
                         .copied()
-                        .filter(|&k| judge(s, &t.points()[k], t.support(k), 0.0).is_some()),
+                        .filter(|&k| s.judge(&t.points()[k], t.support(k), 0.0).is_some()),
                 );
                 x = t;
             }
         }
     }
-    (x, dwells, unresolved)
+    Ok((x, dwells, unresolved))
 }
 
-pub fn plan_dwells(
-    s: &Scenario,
+/// Plan the dwells of the build `deps` (its schedule without dwells) on `run`, a fresh run of
+/// any heat model on it; `lead` is where the model reads preheat.
+pub fn plan_dwells<R: HeatRun>(
+    s: &Search,
     pl: &Plan,
     deps: &[Deposit],
-    settings: &WallSettings,
-) -> Result<DwellPlan, String> {
+    lead: f64,
+    mut run: R,
+) -> Result<DwellPlan, ThermalError> {
     let n = deps.len();
-    let revs = revolutions(pl, deps, settings.lead);
-    let judged = judged_at(deps, settings.lead);
-    let mut run = WallRun::new(WallModel::build(deps, settings)?, deps, settings);
+    let revs = revolutions(pl, deps, lead);
+    let judged = judged_at(deps, lead);
     let mut plan = DwellPlan {
         dwell_s: vec![0.0; n],
         reason: vec![None; n],
@@ -256,17 +282,16 @@ pub fn plan_dwells(
     for (r, rev) in revs.iter().enumerate() {
         let seg_end = revs.get(r + 1).map_or(n, |x| x.dwell_at).max(rev.dwell_at);
         if cursor < rev.dwell_at {
-            advance(&mut run, deps, cursor, rev.dwell_at, 0.0);
+            advance(&mut run, cursor, rev.dwell_at, 0.0)?;
             simulated += rev.dwell_at - cursor;
         }
         let segment = Segment {
             s,
-            deps,
             judged: &judged,
             rev: *rev,
             seg_end,
         };
-        let (x0, risk0, _) = segment.try_dwell(&run, 0.0, &mut simulated);
+        let (x0, risk0, _) = segment.try_dwell(&run, 0.0, &mut simulated)?;
         let Some((_, why)) = risk0 else {
             run = x0;
             cursor = seg_end;
@@ -274,21 +299,14 @@ pub fn plan_dwells(
         };
         // Dwells inside the revolution, just where they are needed: the least dwell time.
         let mut point_sim = 0.0;
-        let (xp, point, point_unresolved) = point_dwells(
-            s,
-            deps,
-            &judged,
-            &run,
-            rev.dwell_at,
-            seg_end,
-            &mut point_sim,
-        );
+        let (xp, point, point_unresolved) =
+            point_dwells(s, &judged, &run, rev.dwell_at..seg_end, &mut point_sim)?;
         simulated += point_sim as usize;
         let point_cost = point.iter().map(|p| p.1).sum::<f64>() + w * point.len() as f64;
         // One dwell before the revolution: one arc stop. Sized only when stops carry a weight or
         // the point dwells cannot make the revolution safe.
         let whole = if w > 0.0 || !point_unresolved.is_empty() {
-            segment.smallest_dwell(&run, last_dwell, &mut simulated)
+            segment.smallest_dwell(&run, last_dwell, &mut simulated)?
         } else {
             None
         };
@@ -309,9 +327,9 @@ pub fn plan_dwells(
             }
         }
         // A trial that stopped at its first risky point leaves the segment unfinished.
-        if run.laid < seg_end {
-            let from = run.laid;
-            advance(&mut run, deps, from, seg_end, 0.0);
+        if run.laid() < seg_end {
+            let from = run.laid();
+            advance(&mut run, from, seg_end, 0.0)?;
             simulated += seg_end - from;
         }
         cursor = seg_end;
@@ -322,8 +340,7 @@ pub fn plan_dwells(
 
 /// One revolution's stretch of deposits, from its dwell point to the next one's.
 struct Segment<'a> {
-    s: &'a Scenario,
-    deps: &'a [Deposit],
+    s: &'a Search<'a>,
     judged: &'a [Vec<usize>],
     rev: Revolution,
     seg_end: usize,
@@ -332,43 +349,44 @@ struct Segment<'a> {
 impl Segment<'_> {
     /// Lay the stretch after a dwell of `d` from `start`, stopping at the first risky point of the
     /// revolution: failing trials are cheap.
-    fn try_dwell(
+    fn try_dwell<R: HeatRun>(
         &self,
-        start: &WallRun,
+        start: &R,
         d: f64,
         simulated: &mut usize,
-    ) -> (WallRun, Option<(usize, Risk)>, f64) {
+    ) -> Result<(R, Option<(usize, Risk)>, f64), ThermalError> {
         let (s, rev) = (self.s, self.rev);
         let mut x = start.clone();
         for i in rev.dwell_at..self.seg_end {
-            x.deposit(self.deps, i, if i == rev.dwell_at { d } else { 0.0 });
+            x.deposit(i, if i == rev.dwell_at { d } else { 0.0 })?;
             *simulated += 1;
             let risky = self.judged[i].iter().any(|&k| {
                 k >= rev.first
                     && k < rev.end
-                    && judge(s, &x.points()[k], x.support(k), s.dwell.margin_k).is_some()
+                    && s.judge(&x.points()[k], x.support(k), s.dwell.margin_k)
+                        .is_some()
             });
             if risky {
                 break;
             }
         }
         let (risk, hottest) = check(s, &x, rev.first..rev.end, s.dwell.margin_k);
-        (x, risk, hottest)
+        Ok((x, risk, hottest))
     }
 
     /// The smallest dwell before the revolution that keeps it safe: cooling of the excess above
     /// ambient is close to exponential, so two tries give its time constant and the dwell that
     /// reaches the target; then the bracket closes to 10 %.
-    fn smallest_dwell(
+    fn smallest_dwell<R: HeatRun>(
         &self,
-        start: &WallRun,
+        start: &R,
         guess: f64,
         simulated: &mut usize,
-    ) -> Option<(f64, WallRun)> {
-        let (_, _, hot0) = self.try_dwell(start, 0.0, simulated);
+    ) -> Result<Option<(f64, R)>, ThermalError> {
+        let (_, _, hot0) = self.try_dwell(start, 0.0, simulated)?;
         shortest_dwell(self.s, if guess > 0.0 { guess } else { 10.0 }, hot0, |d| {
-            let (x, risk, hot) = self.try_dwell(start, d, simulated);
-            (x, risk.is_none(), hot)
+            let (x, risk, hot) = self.try_dwell(start, d, simulated)?;
+            Ok((x, risk.is_none(), hot))
         })
     }
 }
@@ -377,22 +395,19 @@ impl Segment<'_> {
 /// preheat) finds safe, starting from `guess`: cooling of the excess above ambient is close to
 /// exponential, so two tries give its time constant and the dwell that reaches the target; then
 /// the bracket closes to 10 %. `None` if even the longest dwell fails.
-fn shortest_dwell(
-    s: &Scenario,
+fn shortest_dwell<R>(
+    s: &Search,
     guess: f64,
     hot0: f64,
-    mut attempt: impl FnMut(f64) -> (WallRun, bool, f64),
-) -> Option<(f64, WallRun)> {
-    let (ambient, target) = (
-        s.thermal.ambient_k,
-        s.dwell.interpass_max_k - s.dwell.margin_k,
-    );
+    mut attempt: impl FnMut(f64) -> Result<(R, bool, f64), ThermalError>,
+) -> Result<Option<(f64, R)>, ThermalError> {
+    let (ambient, target) = (s.ambient_k, s.target_k());
     let mut tries = vec![(0.0, hot0)];
     let mut d = guess;
-    let (mut fail, mut best): (f64, Option<(f64, WallRun)>) = (0.0, None);
+    let (mut fail, mut best): (f64, Option<(f64, R)>) = (0.0, None);
     for _ in 0..MAX_TRIES {
         d = d.clamp(0.0, s.dwell.max_dwell_s);
-        let (x, safe, hot) = attempt(d);
+        let (x, safe, hot) = attempt(d)?;
         tries.push((d, hot));
         if safe {
             let close = d - fail <= (0.1 * d).max(0.5);
@@ -408,7 +423,7 @@ fn shortest_dwell(
         }
         d = next_dwell(&tries, fail, best.as_ref().map(|b| b.0), ambient, target);
     }
-    best
+    Ok(best)
 }
 
 /// The next dwell to try: from the exponential fit of the last two tries (T − T_a ∝ e^{−d/τ}),
@@ -447,16 +462,16 @@ fn next_dwell(
 /// point, if any; stops there. A point's preheat is read upstream of it, so once it is laid it
 /// can be judged.
 pub fn first_risk(
-    s: &Scenario,
+    s: &Search,
+    model: &HeatModel,
     deps: &[Deposit],
-    settings: &WallSettings,
     dwell_s: &[f64],
     upto: usize,
-) -> Result<Option<(usize, Risk)>, String> {
-    let mut run = WallRun::new(WallModel::build(deps, settings)?, deps, settings);
+) -> Result<Option<(usize, Risk)>, ThermalError> {
+    let mut run = model.start(deps)?;
     for (i, &dwell) in dwell_s.iter().enumerate().take(upto.min(deps.len())) {
-        run.deposit(deps, i, dwell);
-        if let Some(r) = judge(s, &run.points()[i], run.support(i), 0.0) {
+        run.deposit(i, dwell)?;
+        if let Some(r) = s.judge(&run.points()[i], run.support(i), 0.0) {
             return Ok(Some((i, r)));
         }
     }
@@ -488,12 +503,12 @@ pub struct Uniform {
 /// The smallest uniform dwell per revolution that keeps every point before the policy's limit
 /// safe ([`Uniform::until`]), by bisection over builds stopped at their first risky point.
 pub fn uniform_baseline(
-    s: &Scenario,
+    s: &Search,
     pl: &Plan,
+    model: &HeatModel,
     deps: &[Deposit],
-    settings: &WallSettings,
-) -> Result<Uniform, String> {
-    let at = dwell_points(pl, deps, settings.lead);
+) -> Result<Uniform, ThermalError> {
+    let at = dwell_points(pl, deps, model.lead());
     let with = |d: f64| {
         let mut v = vec![0.0; deps.len()];
         for &i in &at {
@@ -502,7 +517,7 @@ pub fn uniform_baseline(
         v
     };
     let max = s.dwell.max_dwell_s;
-    let until = match first_risk(s, deps, settings, &with(max), deps.len())? {
+    let until = match first_risk(s, model, deps, &with(max), deps.len())? {
         None => deps.len(),
         Some((i, _)) => {
             let layer = pl.points[i].layer;
@@ -519,7 +534,7 @@ pub fn uniform_baseline(
     let (mut lo, mut hi) = (0.0, max);
     while hi - lo > (0.02 * hi).max(0.5) {
         let mid = 0.5 * (lo + hi);
-        if first_risk(s, deps, settings, &with(mid), until)?.is_some() {
+        if first_risk(s, model, deps, &with(mid), until)?.is_some() {
             lo = mid;
         } else {
             hi = mid;
@@ -532,34 +547,30 @@ pub fn uniform_baseline(
 }
 
 /// "Wait until the last layer is below the limit": before each revolution's dwell point, wait
-/// until every node of the previous revolution is below the interpass limit (capped at the
+/// until all the metal of the previous revolution is below the interpass limit (capped at the
 /// longest dwell). Returns the dwells it waited.
 pub fn wait_until_cool(
-    s: &Scenario,
+    s: &Search,
     pl: &Plan,
+    model: &HeatModel,
     deps: &[Deposit],
-    settings: &WallSettings,
-) -> Result<Vec<f64>, String> {
-    let revs = revolutions(pl, deps, settings.lead);
-    let mut run = WallRun::new(WallModel::build(deps, settings)?, deps, settings);
+) -> Result<Vec<f64>, ThermalError> {
+    let revs = revolutions(pl, deps, model.lead());
+    let mut run = model.start(deps)?;
     let mut dwell = vec![0.0; deps.len()];
     let mut cursor = 0;
     for (r, rev) in revs.iter().enumerate().skip(1) {
-        advance(&mut run, deps, cursor, rev.dwell_at, 0.0);
+        advance(&mut run, cursor, rev.dwell_at, 0.0)?;
         cursor = rev.dwell_at;
         let prev = revs[r - 1];
-        let nodes: Vec<usize> = (prev.first..prev.end.min(cursor))
-            .map(|i| run.node_of(i))
-            .collect();
-        let hot = |run: &WallRun| {
-            nodes
-                .iter()
-                .map(|&k| run.temperatures()[k])
+        let hot = |run: &thermal::ModelRun| {
+            (prev.first..prev.end.min(cursor))
+                .map(|i| run.temperature_of(i))
                 .fold(f64::NEG_INFINITY, f64::max)
         };
         let mut waited = 0.0;
         while hot(&run) > s.dwell.interpass_max_k && waited < s.dwell.max_dwell_s {
-            run.cool(1.0);
+            run.cool(1.0)?;
             waited += 1.0;
         }
         dwell[rev.dwell_at] = waited;
@@ -569,8 +580,8 @@ pub fn wait_until_cool(
             .map_or(deps.len(), |x| x.dwell_at)
             .max(cursor);
         if end > cursor {
-            run.deposit(deps, cursor, 0.0);
-            advance(&mut run, deps, cursor + 1, end, 0.0);
+            run.deposit(cursor, 0.0)?;
+            advance(&mut run, cursor + 1, end, 0.0)?;
         }
         cursor = end;
     }
@@ -581,7 +592,8 @@ pub fn wait_until_cool(
 mod tests {
     use thermal::material::Material;
     use thermal::network::Surroundings;
-    use thermal::wall::{Plate, WallModel, WallRun, WallSettings};
+    use thermal::wall::{WallModel, WallRun, WallSettings};
+    use thermal::{HeatRun, Plate};
 
     /// Trials of any order through the cache give the state one `cool(d)` gives, bit for bit.
     #[test]
@@ -615,15 +627,15 @@ mod tests {
             &settings,
         );
         for i in 0..60 {
-            run.deposit(&deps, i, 0.0);
+            run.deposit(i, 0.0).unwrap();
         }
         let mut cache = Vec::new();
         for d in [5.0, 21.0, 15.0, 18.0, 70.0, 0.5, 33.3] {
             let mut once = run.clone();
-            once.cool(d);
-            let on = super::cooled(&run, &mut cache, d);
+            once.cool(d).unwrap();
+            let on = super::cooled(&run, &mut cache, d).unwrap();
             assert_eq!(on.temperatures(), once.temperatures(), "dwell {d}");
-            assert!((on.now - once.now).abs() < 1e-9);
+            assert!((on.now() - once.now()).abs() < 1e-9);
         }
         assert!(cache.len() >= 4);
     }

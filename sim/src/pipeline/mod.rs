@@ -1,0 +1,301 @@
+//! The engine: plan → beads → deposition schedule → heat → risk → dwells, as plain data in and
+//! plain data out. No file, terminal or network IO happens here: the commands read the
+//! scenario, call this, and write the files; a notebook or another tool can drive it from Rust
+//! with parameters it fills in itself.
+//!
+//! A [`Build`] is made once from a plan and its [`Params`] (the beads and the schedule are
+//! computed there, once); it runs through either heat model ([`Build::simulate`]), is judged
+//! ([`Simulation::risks`]) and given dwells ([`Build::plan_dwells`]).
+//!
+//! ```
+//! use planner::mesh::{LowerLoop, Part};
+//! use planner::shapes::Shape;
+//! use sim::pipeline::{Build, plan};
+//! use sim::scenario::Scenario;
+//!
+//! // The documented defaults (scenarios/README.md), then parameters set in Rust.
+//! let s = Scenario::parse("[part]\nshape = \"disk\"\nradius_mm = 1.0\n", "defaults", ".".as_ref())
+//!     .unwrap();
+//! let (mut params, mut planning) = (s.params(), s.plan_params());
+//! params.thermal.plate_m = [0.08, 0.08, 0.008];
+//! params.dwell.interpass_max_k = thermal::kelvin(250.0);
+//! planning.n_points = 40;
+//!
+//! // A closed dome R 20 mm from its mesh, planned with CTPP, heated, given its dwells.
+//! let mesh = Shape::Hemisphere { radius_mm: 20.0 }.mesh(2.5);
+//! let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
+//! let build = Build::new(plan(&part, &planning).unwrap(), params);
+//! let before = build.simulate(&[], 0).unwrap();
+//! let dwells = build.plan_dwells().unwrap();
+//! let after = build.simulate(&dwells.dwell_s, 0).unwrap();
+//! assert!(before.first_risk(&build.criteria).is_some());
+//! assert!(after.first_risk(&build.criteria).is_none());
+//! println!("{:.0} s of dwell", dwells.dwell_s.iter().sum::<f64>());
+//! ```
+
+pub mod beads;
+pub mod deposition;
+pub mod dwell;
+pub mod params;
+pub mod risk;
+
+pub use params::Params;
+
+use beads::Beads;
+use dwell::{DwellPlan, Search};
+use planner::mesh::Part;
+use planner::plan::{Plan, PlanParams};
+use risk::{Criteria, Risk, judge};
+use std::fmt;
+use std::time::Instant;
+use thermal::schedule::Deposit;
+use thermal::{HeatModel, RunResult, ThermalError};
+
+/// What can stop the engine: the part cannot be planned, or the heat model cannot take the
+/// build or fails on it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Error {
+    /// The planner's verdict on the part (branching, too short, …): the user's input.
+    Plan(String),
+    Thermal(ThermalError),
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Plan(e) => write!(f, "plan: {e}"),
+            Error::Thermal(e) => write!(f, "thermal: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+impl From<ThermalError> for Error {
+    fn from(e: ThermalError) -> Self {
+        Error::Thermal(e)
+    }
+}
+
+/// Plan a part with CTPP.
+pub fn plan(part: &Part, params: &PlanParams) -> Result<Plan, Error> {
+    planner::plan::plan(part, params).map_err(|e| Error::Plan(e.to_string()))
+}
+
+/// A planned build with its beads and schedule, ready to be heated, judged and given dwells.
+#[derive(Debug, Clone)]
+pub struct Build {
+    pub plan: Plan,
+    pub params: Params,
+    /// Per path point, the machine settings and the heat they put in.
+    pub beads: Beads,
+    pub criteria: Criteria,
+    /// The schedule without dwells.
+    deposits: Vec<Deposit>,
+}
+
+/// A simulated build: the schedule it ran and what the heat model made of it.
+#[derive(Debug, Clone)]
+pub struct Simulation {
+    /// The schedule with its dwells.
+    pub deposits: Vec<Deposit>,
+    pub dwell_s: Vec<f64>,
+    pub result: RunResult,
+    /// "fe" or "voxel".
+    pub model: &'static str,
+    /// Wall-clock time of the heat model, s.
+    pub wall_clock_s: f64,
+}
+
+impl Build {
+    pub fn new(plan: Plan, params: Params) -> Build {
+        let beads = beads::beads(&params.process, &params.material, &plan);
+        let deposits = deposition::schedule(&params.process, &plan, &beads, &[]);
+        let criteria = Criteria::new(&params);
+        Build {
+            plan,
+            params,
+            beads,
+            criteria,
+            deposits,
+        }
+    }
+
+    /// The schedule without dwells.
+    pub fn deposits(&self) -> &[Deposit] {
+        &self.deposits
+    }
+
+    /// The scenario's heat model on `deposits`, keeping the field at `snapshot_times`.
+    pub fn heat_model(&self, deposits: &[Deposit], snapshot_times: Vec<f64>) -> HeatModel {
+        let p = &self.params;
+        deposition::heat_model(&p.material, &p.thermal, deposits, snapshot_times)
+    }
+
+    /// Heat the build with `dwell_s[i]` before point i, keeping the field at up to `frames`
+    /// times (0: none; fewer on long paths, [`frame_times`]).
+    pub fn simulate(&self, dwell_s: &[f64], frames: usize) -> Result<Simulation, ThermalError> {
+        let deposits = deposition::schedule(&self.params.process, &self.plan, &self.beads, dwell_s);
+        let build_s = deposits.last().map_or(0.0, |d| d.time);
+        let times = match frames {
+            0 => Vec::new(),
+            n => frame_times(build_s, deposits.len(), n),
+        };
+        let model = self.heat_model(&deposits, times);
+        let clock = Instant::now();
+        let result = model.simulate(&deposits)?;
+        Ok(Simulation {
+            dwell_s: (0..deposits.len())
+                .map(|i| dwell_s.get(i).copied().unwrap_or(0.0))
+                .collect(),
+            deposits,
+            result,
+            model: model.name(),
+            wall_clock_s: clock.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// What a dwell search judges by and aims for.
+    pub fn search(&self) -> Search<'_> {
+        Search {
+            criteria: &self.criteria,
+            dwell: &self.params.dwell,
+            ambient_k: self.params.thermal.ambient_k,
+        }
+    }
+
+    /// The cooling dwells that keep every point safe, searched on the scenario's heat model.
+    pub fn plan_dwells(&self) -> Result<DwellPlan, ThermalError> {
+        let model = self.heat_model(&self.deposits, Vec::new());
+        let run = model.start(&self.deposits)?;
+        dwell::plan_dwells(
+            &self.search(),
+            &self.plan,
+            &self.deposits,
+            model.lead(),
+            run,
+        )
+    }
+
+    /// Per path point, whether it lies in the closing zone (`[dwell] closing_zone_mm`).
+    pub fn closing_zone(&self) -> Vec<bool> {
+        risk::closing_zone(&self.plan, self.params.dwell.closing_zone_mm)
+    }
+
+    /// Per revolution: start, duration, preheat max and mean, dwell.
+    pub fn layers(&self, sim: &Simulation) -> Vec<LayerRow> {
+        let pl = &self.plan;
+        let mut rows: Vec<LayerRow> = Vec::new();
+        for (i, q) in pl.points.iter().enumerate() {
+            let d = &sim.deposits[i];
+            let pre = sim.result.points[i].preheat;
+            let dwell = sim.dwell_s[i];
+            match rows.last_mut() {
+                Some(r) if r.layer == q.layer => {
+                    r.duration_s = d.time - r.t_start_s;
+                    r.preheat_max_k = r.preheat_max_k.max(pre);
+                    r.preheat_mean_k += pre;
+                    r.dwell_s += dwell;
+                }
+                _ => rows.push(LayerRow {
+                    layer: q.layer,
+                    t_start_s: d.arc_start() - dwell,
+                    duration_s: d.time - d.arc_start() + dwell,
+                    preheat_max_k: pre,
+                    preheat_mean_k: pre,
+                    dwell_s: dwell,
+                }),
+            }
+        }
+        for r in &mut rows {
+            let n = pl
+                .points
+                .iter()
+                .filter(|q| q.layer == r.layer)
+                .count()
+                .max(1);
+            r.preheat_mean_k /= n as f64;
+        }
+        rows
+    }
+
+    /// Predicted as-built beads: the plan's deposits stacked with the hot-metal law at the
+    /// simulated preheat (bead model, `[bead]`).
+    pub fn as_built(&self, sim: &Simulation) -> Vec<bead_model::as_built::BuiltBead> {
+        let pl = &self.plan;
+        let planned: Vec<f64> = pl.points.iter().map(|q| q.deposit_mm * 1e-3).collect();
+        let generator: Vec<usize> = pl.points.iter().map(|q| q.generator).collect();
+        let preheat: Vec<f64> = sim.result.points.iter().map(|p| p.preheat).collect();
+        let b = &self.params.bead;
+        bead_model::as_built::stack(
+            &planned,
+            &generator,
+            &preheat,
+            self.params.process.bead_width_m,
+            b.stickout_m,
+            &b.hot_metal,
+        )
+    }
+}
+
+impl Simulation {
+    pub fn build_time_s(&self) -> f64 {
+        self.deposits.last().map_or(0.0, |d| d.time)
+    }
+
+    /// Per point, the first criterion it breaks.
+    pub fn risks(&self, c: &Criteria) -> Vec<Option<Risk>> {
+        let r = &self.result;
+        (0..r.points.len())
+            .map(|i| judge(c, &r.points[i], r.support[i], 0.0))
+            .collect()
+    }
+
+    /// The first point at risk, and why.
+    pub fn first_risk(&self, c: &Criteria) -> Option<(usize, Risk)> {
+        let r = &self.result;
+        (0..r.points.len()).find_map(|i| judge(c, &r.points[i], r.support[i], 0.0).map(|k| (i, k)))
+    }
+
+    /// The hottest preheat of the build, K.
+    pub fn max_preheat_k(&self) -> f64 {
+        self.result
+            .points
+            .iter()
+            .map(|p| p.preheat)
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+}
+
+/// Per revolution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LayerRow {
+    pub layer: usize,
+    pub t_start_s: f64,
+    pub duration_s: f64,
+    pub preheat_max_k: f64,
+    pub preheat_mean_k: f64,
+    pub dwell_s: f64,
+}
+
+/// Most field values kept over a run, frames × path points (16 MB of f32 per sink).
+pub const FIELD_BUDGET: usize = 4_000_000;
+
+/// When to keep the field: evenly over the build, at most `frames` times and at most
+/// [`FIELD_BUDGET`] values in all, always including the end of the build.
+pub fn frame_times(build_s: f64, n_points: usize, frames: usize) -> Vec<f64> {
+    let n = frames.min(FIELD_BUDGET / n_points.max(1)).max(1);
+    (1..=n).map(|k| build_s * k as f64 / n as f64).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn frames_are_bounded_and_end_at_the_build() {
+        let t = super::frame_times(100.0, 10, 50);
+        assert_eq!(t.len(), 50);
+        assert_eq!(*t.last().unwrap(), 100.0);
+        let t = super::frame_times(100.0, 1_000_000, 50);
+        assert_eq!(t.len(), 4);
+    }
+}

@@ -1,0 +1,114 @@
+//! Collapse-risk criteria per path point, each switchable in `[dwell]`:
+//!
+//! - interpass: the preheat above the interpass limit (200 °C by default, a common choice for
+//!   steel WAAM);
+//! - strength: the layer beneath still above a strength-loss temperature when the torch returns
+//!   (550 °C by default: carbon steel keeps about 60 % of its yield strength there, EN 1993-1-2
+//!   Table 3.1);
+//! - humping: a melt pool longer than π times the bead width (the Rayleigh–Plateau limit of a
+//!   liquid cylinder, the usual humping criterion);
+//! - bond: the Bond number of the pool (R the radius of the half sphere of its volume) above the
+//!   bead model's threshold (Radel et al. 2019).
+//!
+//! The interpass and strength limits concern a layer on a layer: points laid on the plate are
+//! not judged by them, nor are points laid on the bead being laid at a closing point (where a
+//! revolution is no longer than a thin-wall node and no dwell can come between them).
+
+use super::params::Params;
+use bead_model::bond::bond_number;
+use planner::plan::Plan;
+use thermal::{PointResult, Support};
+
+/// The criteria in force, each `None` when switched off. SI, temperatures in K.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Criteria {
+    /// The interpass limit on a layer laid on a layer.
+    pub interpass_max_k: Option<f64>,
+    /// The strength-loss limit on the same.
+    pub strength_loss_k: Option<f64>,
+    /// Melt pools longer than this hump, m.
+    pub humping_pool_m: Option<f64>,
+    pub bond: Option<BondLimit>,
+}
+
+/// The Bond number of the pool, Bo = ρ g R² / σ, must stay at or below `max`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BondLimit {
+    pub max: f64,
+    pub density_kg_m3: f64,
+    pub surface_tension_n_m: f64,
+}
+
+impl Criteria {
+    /// The criteria a parameter set switches on (`[dwell] criteria`).
+    pub fn new(p: &Params) -> Criteria {
+        let d = &p.dwell;
+        Criteria {
+            interpass_max_k: d.interpass.then_some(d.interpass_max_k),
+            strength_loss_k: d.strength_loss_k,
+            humping_pool_m: d
+                .humping
+                .then_some(std::f64::consts::PI * p.process.bead_width_m),
+            bond: d.bond.then_some(BondLimit {
+                max: p.bead.bond_max,
+                density_kg_m3: p.material.density_kg_m3,
+                surface_tension_n_m: p.material.surface_tension_n_m,
+            }),
+        }
+    }
+}
+
+/// Why a point is at risk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Risk {
+    Interpass,
+    Strength,
+    Humping,
+    Bond,
+}
+
+impl Risk {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Risk::Interpass => "interpass",
+            Risk::Strength => "strength",
+            Risk::Humping => "humping",
+            Risk::Bond => "bond",
+        }
+    }
+}
+
+/// The first criterion point `p` breaks, if any. `margin_k` tightens the temperature limits.
+pub fn judge(c: &Criteria, p: &PointResult, support: Support, margin_k: f64) -> Option<Risk> {
+    if support == Support::Deposit {
+        if c.interpass_max_k.is_some_and(|t| p.preheat > t - margin_k) {
+            return Some(Risk::Interpass);
+        }
+        if c.strength_loss_k.is_some_and(|t| p.preheat > t - margin_k) {
+            return Some(Risk::Strength);
+        }
+    }
+    if c.humping_pool_m.is_some_and(|l| p.pool_length > l) {
+        return Some(Risk::Humping);
+    }
+    if let Some(b) = c.bond
+        && p.pool_radius.is_finite()
+        && bond_number(b.density_kg_m3, p.pool_radius, b.surface_tension_n_m) > b.max
+    {
+        return Some(Risk::Bond);
+    }
+    None
+}
+
+/// Per path point: whether it lies within `radius_mm` of a closed part's closing point (its
+/// closing zone, where revolutions get short enough that the torch heats a revolution's own
+/// substrate; none on an open part).
+pub fn closing_zone(pl: &Plan, radius_mm: f64) -> Vec<bool> {
+    pl.points
+        .iter()
+        .map(|q| {
+            pl.closing_point
+                .is_some_and(|c| (q.position - c).norm() < radius_mm)
+        })
+        .collect()
+}

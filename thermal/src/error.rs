@@ -1,0 +1,60 @@
+//! What can go wrong in a heat model, with the evidence: a schedule that is not a build (the
+//! caller's input) or a numerical failure of the model (ours).
+
+use std::fmt;
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum ThermalError {
+    /// The schedule breaks one of its rules ([`crate::schedule::validate`]).
+    Schedule { deposit: usize, reason: String },
+    /// A deposit laid on the plate lies outside it.
+    OutsidePlate {
+        deposit: usize,
+        x_mm: f64,
+        y_mm: f64,
+    },
+    /// A temperature or an energy sum left the finite numbers: a step that was not stable, or
+    /// heat no material can take.
+    NonFinite {
+        time_s: f64,
+        position_mm: [f64; 3],
+        what: &'static str,
+        value: f64,
+    },
+}
+
+impl ThermalError {
+    /// Whether the caller's input caused it (a schedule or plate the model cannot take), as
+    /// opposed to a failure of the model.
+    pub fn is_input(&self) -> bool {
+        !matches!(self, ThermalError::NonFinite { .. })
+    }
+}
+
+impl fmt::Display for ThermalError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ThermalError::Schedule { deposit, reason } => write!(f, "deposit {deposit}: {reason}"),
+            ThermalError::OutsidePlate {
+                deposit,
+                x_mm,
+                y_mm,
+            } => write!(
+                f,
+                "deposit {deposit} at ({x_mm:.1}, {y_mm:.1}) mm lies outside the plate"
+            ),
+            ThermalError::NonFinite {
+                time_s,
+                position_mm: p,
+                what,
+                value,
+            } => write!(
+                f,
+                "numerical failure at t = {time_s:.3} s, ({:.1}, {:.1}, {:.1}) mm: {what} = {value}",
+                p[0], p[1], p[2]
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ThermalError {}

@@ -1,0 +1,245 @@
+//! The heat-model contract: what every model of the growing part does and gives, so that the
+//! risk criteria, the dwell planner, the recording and the studies are written once.
+//!
+//! A model is started on a schedule ([`HeatModel::start`]) and driven one deposit at a time
+//! ([`HeatRun::deposit`], with a dwell before it); it cools for a time on request, is cloned as
+//! a checkpoint, and answers per-point results (preheat, peak, pool, time above the threshold,
+//! what a point lies on) while it runs and in full when it finishes ([`RunResult`]: field
+//! snapshots and the energy ledger too). The thin wall ([`crate::wall`]) and the voxel model
+//! ([`crate::voxel`]) both implement it; [`ModelRun`] is either, chosen at run time.
+
+use crate::error::ThermalError;
+use crate::network::Ledger;
+use crate::schedule::Deposit;
+use crate::voxel::{VoxelModel, VoxelRun, VoxelSettings};
+use crate::wall::{WallModel, WallRun, WallSettings};
+
+/// The substrate plate: a box under the part, its top face at z = 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plate {
+    /// Size x, y and thickness, m.
+    pub size: [f64; 3],
+    /// Centre of the plate's top face in x and y, m.
+    pub centre: [f64; 2],
+    /// Thin wall: the plate's cell size, m.
+    pub cell: f64,
+    /// Thin wall: cell layers through the thickness (the wall heats the plate's top skin first).
+    pub layers: usize,
+}
+
+/// What a deposit is laid on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Support {
+    /// The substrate plate (the first revolution).
+    Plate,
+    /// An earlier revolution.
+    Deposit,
+    /// A deposit laid at or after the moment this one's preheat is read (`lead` upstream), or
+    /// inside the torch's footprint at that moment: near a closing point, where a revolution is
+    /// not much longer than the lead, the reading is the arc's own heat, and no dwell can come
+    /// between the two.
+    JustLaid,
+}
+
+/// Per deposit.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PointResult {
+    /// Temperature of the metal this deposit is laid on, read when the torch is `lead` upstream.
+    pub preheat: f64,
+    /// Highest temperature its metal reached, K.
+    pub peak: f64,
+    /// Length of molten bead behind the torch when it was laid, m.
+    pub pool_length: f64,
+    /// Radius of the half sphere of the molten volume, m.
+    pub pool_radius: f64,
+    /// Time its metal spent above the threshold, s.
+    pub time_above: f64,
+}
+
+/// The field at one time: one temperature per deposit (K), its metal's once laid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    pub time: f64,
+    pub temperature: Vec<f64>,
+}
+
+/// How a model discretised the part, and what it cost.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Cells {
+    ThinWall {
+        wall_nodes: usize,
+        plate_cells: usize,
+        /// Conjugate-gradient iterations over the run.
+        cg_iterations: usize,
+    },
+    Voxel {
+        voxels: usize,
+        /// Voxel updates performed (steps × active voxels).
+        updates: u64,
+    },
+}
+
+/// A finished run.
+#[derive(Debug, Clone)]
+pub struct RunResult {
+    pub points: Vec<PointResult>,
+    /// What each deposit is laid on.
+    pub support: Vec<Support>,
+    /// The field at the settings' snapshot times.
+    pub snapshots: Vec<Snapshot>,
+    pub ledger: Ledger,
+    /// Energy held by the part at the end above ambient, J.
+    pub stored: f64,
+    /// (in − stored − lost)/in.
+    pub balance_error: f64,
+    /// Deposits whose heat did not cover melting their own metal (source clamped at zero).
+    pub underpowered: usize,
+    pub steps: usize,
+    pub cells: Cells,
+}
+
+/// A heat model running through a schedule. Cloning it is a checkpoint: the dwell planner
+/// restarts from one with a trial dwell instead of simulating the build again.
+pub trait HeatRun: Clone {
+    /// Cool `dwell` seconds, then lay deposit i of the run's schedule (the next one): its metal
+    /// arrives at the deposit temperature and the rest of its heat goes in over its arc time.
+    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError>;
+    /// Let the part cool with the arc off for `duration` seconds.
+    fn cool(&mut self, duration: f64) -> Result<(), ThermalError>;
+    /// Per deposit, the results so far (a preheat is known once it was read).
+    fn points(&self) -> &[PointResult];
+    /// What deposit i is laid on.
+    fn support(&self, i: usize) -> Support;
+    /// Deposits laid so far.
+    fn laid(&self) -> usize;
+    /// Build time now, s.
+    fn now(&self) -> f64;
+    /// Temperature now of the metal deposit i is laid on, K.
+    fn temperature_beneath(&self, i: usize) -> f64;
+    /// Temperature now of deposit i's own metal, K.
+    fn temperature_of(&self, i: usize) -> f64;
+    /// The longest step the model takes while cooling, s: a caller that cools in pieces and
+    /// wants the state one call gives needs it (the dwell planner's cache).
+    fn cooling_steps(&self) -> CoolingSteps;
+    fn finish(self) -> RunResult;
+}
+
+/// How a model steps through a cooling: the steps of one `cool(d)` call.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CoolingSteps {
+    /// Doubling from 1 s up to `max` s, then what is left (implicit models).
+    Doubling { max: f64 },
+    /// Equal steps of at most `step` s (explicit models at their stability limit).
+    Fixed { step: f64 },
+}
+
+/// Which model, with its settings: the one choice a caller makes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum HeatModel {
+    ThinWall(WallSettings),
+    Voxel(VoxelSettings),
+}
+
+/// A run of either model.
+#[derive(Clone)]
+pub enum ModelRun {
+    ThinWall(Box<WallRun>),
+    Voxel(Box<VoxelRun>),
+}
+
+impl HeatModel {
+    /// Build the model for `deps` and start a run at the first arc.
+    pub fn start(&self, deps: &[Deposit]) -> Result<ModelRun, ThermalError> {
+        Ok(match self {
+            HeatModel::ThinWall(s) => {
+                ModelRun::ThinWall(Box::new(WallRun::new(WallModel::build(deps, s)?, deps, s)))
+            }
+            HeatModel::Voxel(s) => {
+                ModelRun::Voxel(Box::new(VoxelRun::new(VoxelModel::new(deps, s)?, deps)?))
+            }
+        })
+    }
+
+    /// Run the schedule as its times say (dwells are the gaps between arcs).
+    pub fn simulate(&self, deps: &[Deposit]) -> Result<RunResult, ThermalError> {
+        let mut run = self.start(deps)?;
+        replay(&mut run, deps)?;
+        Ok(run.finish())
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            HeatModel::ThinWall(_) => "fe",
+            HeatModel::Voxel(_) => "voxel",
+        }
+    }
+
+    /// Where preheat is read, m upstream of the point.
+    pub fn lead(&self) -> f64 {
+        match self {
+            HeatModel::ThinWall(s) => s.lead,
+            HeatModel::Voxel(s) => s.lead,
+        }
+    }
+
+    /// The times at which the field is kept, s.
+    pub fn set_snapshot_times(&mut self, times: Vec<f64>) {
+        match self {
+            HeatModel::ThinWall(s) => s.snapshot_times = times,
+            HeatModel::Voxel(s) => s.snapshot_times = times,
+        }
+    }
+}
+
+/// Lay every deposit of `deps` (the run's schedule) on `run`, each after the gap the schedule
+/// leaves before its arc.
+pub fn replay(run: &mut impl HeatRun, deps: &[Deposit]) -> Result<(), ThermalError> {
+    let mut previous_end = deps.first().map_or(0.0, |d| d.arc_start());
+    for (i, d) in deps.iter().enumerate() {
+        run.deposit(i, (d.arc_start() - previous_end).max(0.0))?;
+        previous_end = d.time;
+    }
+    Ok(())
+}
+
+macro_rules! either {
+    ($self:expr, $r:ident => $e:expr) => {
+        match $self {
+            ModelRun::ThinWall($r) => $e,
+            ModelRun::Voxel($r) => $e,
+        }
+    };
+}
+
+impl HeatRun for ModelRun {
+    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError> {
+        either!(self, r => r.deposit(i, dwell))
+    }
+    fn cool(&mut self, duration: f64) -> Result<(), ThermalError> {
+        either!(self, r => r.cool(duration))
+    }
+    fn points(&self) -> &[PointResult] {
+        either!(self, r => r.points())
+    }
+    fn support(&self, i: usize) -> Support {
+        either!(self, r => r.support(i))
+    }
+    fn laid(&self) -> usize {
+        either!(self, r => r.laid())
+    }
+    fn now(&self) -> f64 {
+        either!(self, r => r.now())
+    }
+    fn temperature_beneath(&self, i: usize) -> f64 {
+        either!(self, r => r.temperature_beneath(i))
+    }
+    fn temperature_of(&self, i: usize) -> f64 {
+        either!(self, r => r.temperature_of(i))
+    }
+    fn cooling_steps(&self) -> CoolingSteps {
+        either!(self, r => r.cooling_steps())
+    }
+    fn finish(self) -> RunResult {
+        either!(self, r => r.finish())
+    }
+}

@@ -1,0 +1,172 @@
+//! The heat-model contract (`thermal::run`), held by both models: a checkpoint carries on as the
+//! run it was cloned from, a dwell passed to `deposit` is the same as a gap in the schedule,
+//! and a numerical failure comes back as an error with its time, place and value.
+
+use thermal::material::Material;
+use thermal::network::Surroundings;
+use thermal::schedule::{Deposit, helix};
+use thermal::voxel::VoxelSettings;
+use thermal::wall::WallSettings;
+use thermal::{HeatModel, HeatRun, Plate, RunResult, Support, ThermalError};
+
+/// Two revolutions of 40 deposits, R 25 mm, on a 100 mm plate.
+fn schedule() -> Vec<Deposit> {
+    helix(0.025, 40, 2, 2e-3, 5e-3, 10e-3, 1700.0)
+}
+
+fn models(material: Material) -> [HeatModel; 2] {
+    let surroundings = Surroundings {
+        ambient_k: 293.15,
+        convection_w_m2k: 15.0,
+        emissivity: 0.6,
+        table_w_m2k: 100.0,
+    };
+    let plate = Plate {
+        size: [0.1, 0.1, 0.008],
+        centre: [0.0, 0.0],
+        cell: 5e-3,
+        layers: 3,
+    };
+    [
+        HeatModel::ThinWall(WallSettings {
+            material: material.clone(),
+            surroundings,
+            plate: plate.clone(),
+            min_node: 3e-3,
+            deposit_temperature: 1823.15,
+            footprint: 5e-3,
+            lead: 10e-3,
+            hot_threshold: 873.15,
+            max_step: 30.0,
+            snapshot_times: vec![5.0, 25.0],
+        }),
+        HeatModel::Voxel(VoxelSettings {
+            material,
+            surroundings,
+            plate,
+            size: 2e-3,
+            deposit_temperature: 1823.15,
+            lead: 10e-3,
+            hot_threshold: 873.15,
+            snapshot_times: vec![5.0, 25.0],
+            courant: 0.9,
+        }),
+    ]
+}
+
+fn preheats(r: &RunResult) -> Vec<f64> {
+    r.points.iter().map(|p| p.preheat).collect()
+}
+
+#[test]
+fn a_checkpoint_carries_on_as_the_run_it_was_cloned_from() {
+    let deps = schedule();
+    for model in models(Material::g3si()) {
+        let whole = model.simulate(&deps).unwrap();
+        let mut run = model.start(&deps).unwrap();
+        for i in 0..50 {
+            run.deposit(i, 0.0).unwrap();
+        }
+        let mut copy = run.clone();
+        // The original goes on elsewhere; the copy must not notice.
+        run.cool(100.0).unwrap();
+        for i in 50..deps.len() {
+            copy.deposit(i, 0.0).unwrap();
+        }
+        let carried = copy.finish();
+        assert_eq!(carried.points, whole.points, "{}", model.name());
+        assert_eq!(carried.snapshots, whole.snapshots, "{}", model.name());
+        assert_eq!(carried.ledger, whole.ledger, "{}", model.name());
+        // Per deposit, one temperature per snapshot, the laid metal above ambient.
+        assert_eq!(whole.snapshots.len(), 2);
+        assert!(
+            whole
+                .snapshots
+                .iter()
+                .all(|s| s.temperature.len() == deps.len())
+        );
+        assert!(whole.snapshots[0].temperature[0] > 293.15);
+    }
+}
+
+#[test]
+fn a_dwell_passed_to_deposit_is_a_gap_in_the_schedule() {
+    let deps = schedule();
+    // The schedule with 30 s before deposit 45: every later time shifted.
+    let mut gapped = deps.clone();
+    for d in &mut gapped[45..] {
+        d.time += 30.0;
+    }
+    for model in models(Material::g3si()) {
+        let scheduled = model.simulate(&gapped).unwrap();
+        let mut run = model.start(&deps).unwrap();
+        for i in 0..deps.len() {
+            run.deposit(i, if i == 45 { 30.0 } else { 0.0 }).unwrap();
+        }
+        assert!((run.now() - gapped.last().unwrap().time).abs() < 1e-9);
+        let passed = run.finish();
+        // The thin wall steps the same; the voxel model's last partial step before the arc may
+        // round differently (time is summed in another order).
+        let worst = preheats(&scheduled)
+            .iter()
+            .zip(preheats(&passed))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-3,
+            "{}: preheats differ by {worst} K",
+            model.name()
+        );
+        // The dwell cooled what the second revolution is laid on.
+        let hot = model.simulate(&deps).unwrap();
+        assert!(passed.points[65].preheat < hot.points[65].preheat - 20.0);
+        assert_eq!(passed.support[65], Support::Deposit);
+        assert_eq!(passed.support[5], Support::Plate);
+    }
+}
+
+#[test]
+fn a_numerical_failure_names_its_time_place_and_value() {
+    // No heat capacity: the first step divides by a zero mass.
+    let massless = Material::constant(0.0, 500.0, 40.0, 1700.0, 0.0);
+    let deps = schedule();
+    for model in models(massless) {
+        let err = model.simulate(&deps).unwrap_err();
+        match err {
+            ThermalError::NonFinite {
+                time_s,
+                position_mm,
+                ..
+            } => {
+                assert!(time_s.is_finite() && time_s >= 0.0, "{err}");
+                assert!(position_mm.iter().all(|x| x.is_finite()), "{err}");
+            }
+            other => panic!(
+                "{}: expected a numerical failure, got {other}",
+                model.name()
+            ),
+        }
+        assert!(!err.is_input());
+    }
+}
+
+#[test]
+fn a_deposit_off_the_plate_is_bad_input() {
+    let mut deps = schedule();
+    deps[0].position[0] = 0.5;
+    let [wall, _] = models(Material::g3si());
+    let err = wall.start(&deps).err().expect("outside the plate");
+    assert!(
+        matches!(err, ThermalError::OutsidePlate { deposit: 0, .. }),
+        "{err}"
+    );
+    assert!(err.is_input());
+    deps[3].heat = f64::INFINITY;
+    for model in models(Material::g3si()) {
+        let err = model.start(&deps).err().expect("infinite heat");
+        assert!(
+            matches!(err, ThermalError::Schedule { deposit: 3, .. }),
+            "{err}"
+        );
+    }
+}
