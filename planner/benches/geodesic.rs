@@ -73,7 +73,7 @@ fn main() {
         lower.len()
     );
 
-    let obj = std::env::temp_dir().join("waamtwin_bench_tube.obj");
+    let obj = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("waamtwin_bench_tube.obj");
     std::fs::write(&obj, write_obj(mesh)).expect("write temp mesh");
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/peer_potpourri3d.py");
     match std::process::Command::new("python3")

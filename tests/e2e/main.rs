@@ -29,6 +29,21 @@ pub fn waamtwin(args: &[&str]) -> Output {
         .expect("run waamtwin")
 }
 
+/// The tests that bring up outside programs (the reference readers, installed from PyPI into
+/// `target/readers-venv`; a real single-node Slurm, installed as root from the distribution's
+/// packages) run only where this variable is 1. `.ci/run` sets it; a plain `cargo test` touches
+/// nothing outside the checkout and `target/`.
+pub const SYSTEM_TESTS: &str = "WAAMTWIN_SYSTEM_TESTS";
+
+/// Whether the opt-in tests run here; says so when they do not.
+pub fn system_tests(what: &str) -> bool {
+    if std::env::var(SYSTEM_TESTS).as_deref() == Ok("1") {
+        return true;
+    }
+    eprintln!("skipped: {what} (set {SYSTEM_TESTS}=1 to run it)");
+    false
+}
+
 /// A fresh scratch folder under the target directory.
 pub fn scratch(name: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);

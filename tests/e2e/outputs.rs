@@ -1,6 +1,6 @@
 //! The inspection outputs (run.rrd, run.mcap, fields.h5, PNG plots): read back here in Rust, and
 //! by the reference readers of each format (tests/readers/check_outputs.py), which this test
-//! installs from PyPI into target/readers-venv on first use.
+//! installs from PyPI into target/readers-venv on first use (opt-in: `crate::SYSTEM_TESTS`).
 
 use crate::{root, scratch, waamtwin};
 use std::path::{Path, PathBuf};
@@ -116,6 +116,9 @@ fn outputs_open_in_their_readers() {
     );
 
     // And by the reference readers.
+    if !crate::system_tests("the reference readers (pip install into target/readers-venv)") {
+        return;
+    }
     let venv = readers();
     let check = Command::new(venv.join("bin/python"))
         .arg(root().join("tests/readers/check_outputs.py"))

@@ -111,10 +111,13 @@ fn a_killed_study_resumes_and_shards_merge_into_the_same_summary() {
 }
 
 /// A real single-node Slurm (tests/slurm/start.sh installs and starts the distribution's
-/// slurm-wlm on loopback) runs a small study as a job array; the merge job's summary equals a
-/// local run's.
+/// slurm-wlm on loopback, as root) runs a small study as a job array; the merge job's summary
+/// equals a local run's. Opt-in (`crate::SYSTEM_TESTS`): it changes the system.
 #[test]
 fn slurm_runs_a_study_as_a_job_array() {
+    if !crate::system_tests("a real Slurm, installed and started as root") {
+        return;
+    }
     let dir = scratch("study_slurm");
     std::fs::write(
         dir.join("base.toml"),

@@ -38,6 +38,7 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
     let after = heat(&b, &plan.dwell_s, s.output.frames)?;
     let (pl, d) = (&b.plan, &b.params.dwell);
     let risks_after = after.risks(&b.criteria);
+    let zone = b.closing_zone();
     let risky_after: Vec<usize> = (0..pl.points.len())
         .filter(|&i| risks_after[i].is_some())
         .collect();
@@ -60,8 +61,9 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
         "build_time_s": {"before": before.build_time_s(), "after": after.build_time_s()},
         "first_risk_before": first_risk_json(&b, &before),
         "risky_points_after": risky_after.len(),
+        "risky_points_after_outside_closing_zone": risky_after.iter().filter(|&&i| !zone[i]).count(),
         "risky_after": risky_after.iter().take(50).map(|&i| json!({"i": i, "layer": pl.points[i].layer,
-            "reason": risks_after[i].map(|r| r.as_str()),
+            "closing_zone": zone[i], "reason": risks_after[i].map(|r| r.as_str()),
             "preheat_c": celsius(after.result.points[i].preheat), "pool_length_mm": after.result.points[i].pool_length * 1e3})).collect::<Vec<_>>(),
         "unresolved_points": plan.unresolved.len(),
         "search_deposits_in_builds": plan.cost_builds,

@@ -251,6 +251,7 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
     let read =
         |p: PathBuf| -> Option<Value> { serde_json::from_slice(&std::fs::read(p).ok()?).ok() };
     let mut rows = 0;
+    #[cfg(feature = "recording")]
     let mut tradeoff = Vec::new();
     for c in &study.cases {
         let dir = out.join("cases").join(&c.id);
@@ -289,6 +290,7 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
                 .map_or(String::new(), |v| v.to_string())
         );
         rows += 1;
+        #[cfg(feature = "recording")]
         tradeoff.push(crate::record::Case {
             label: c.id.clone(),
             total_dwell_s: case["total_dwell_s"].as_f64().unwrap_or(0.0),
@@ -297,6 +299,7 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
         });
     }
     write_atomic(&out.join("summary.csv"), csv.as_bytes())?;
+    #[cfg(feature = "recording")]
     if !tradeoff.is_empty() {
         crate::record::study_plots(&mut RunDir::create(out)?, &tradeoff)?;
     }

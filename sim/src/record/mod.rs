@@ -11,13 +11,18 @@
 //! [`TORCH_SAMPLES`] times.
 
 mod colour;
+#[cfg(feature = "recording")]
 mod foxglove;
+#[cfg(feature = "recording")]
 mod plots;
+#[cfg(feature = "recording")]
 mod rerun_sink;
 mod scene;
+#[cfg(feature = "recording")]
 mod vtkhdf;
 
 pub use colour::{Colour, temperature_colour};
+#[cfg(feature = "recording")]
 pub use plots::{Case, study_plots};
 pub use scene::{Event, Frame, Level, PointRecord, Probe, Run, Scene, probe};
 
@@ -56,7 +61,8 @@ pub trait Sink {
     fn finish(self: Box<Self>, scene: &Scene, dir: &mut RunDir) -> Result<()>;
 }
 
-/// The sinks `[output]` switches on.
+/// The sinks `[output]` switches on (none in a build without the `recording` feature).
+#[cfg(feature = "recording")]
 pub fn sinks(o: &RawOutput) -> Vec<Box<dyn Sink>> {
     let mut v: Vec<Box<dyn Sink>> = Vec::new();
     if o.rerun {
@@ -72,6 +78,11 @@ pub fn sinks(o: &RawOutput) -> Vec<Box<dyn Sink>> {
         v.push(Box::new(plots::PlotSink));
     }
     v
+}
+
+#[cfg(not(feature = "recording"))]
+pub fn sinks(_: &RawOutput) -> Vec<Box<dyn Sink>> {
+    Vec::new()
 }
 
 /// Feed every sink the scene and then every moment in time order, from this one thread.

@@ -56,6 +56,11 @@ struct Goldak {
 }
 
 impl Goldak {
+    /// The source's rear length c_r for a bead of width `w`.
+    fn rear(w: f64) -> f64 {
+        w
+    }
+
     fn weight(&self, along: f64, across: f64, depth: f64) -> f64 {
         let (c, f) = if along >= 0.0 {
             (self.cf, 0.6)
@@ -541,7 +546,7 @@ impl VoxelModel {
             a: d.width / 2.0,
             b: d.height.max(self.settings.size),
             cf: d.width / 2.0,
-            cr: d.width,
+            cr: Goldak::rear(d.width),
         };
         let dx = self.settings.size;
         let reach = 3.0 * g.cr + dx;
@@ -814,14 +819,17 @@ impl HeatRun for VoxelRun {
     }
 
     /// The thin wall's rule without its nodes: on the plate, on an earlier revolution, or on
-    /// metal laid when (or after) this point's preheat was read, or within a bead width of the
-    /// torch then, where the reading is the arc's own heat.
+    /// metal laid when (or after) this point's preheat was read, or within the source's rear
+    /// length (c_r, one bead width: the thin wall's default footprint) of the torch then, where
+    /// the reading is the arc's own heat and no dwell can come between the two.
     fn support(&self, i: usize) -> Support {
         let d = &self.deps[i];
         match (d.support, self.read_at[i]) {
             (None, _) => Support::Plate,
             (Some(s), Some(r))
-                if s >= r || norm(sub(self.deps[s].position, self.deps[r].position)) < d.width =>
+                if s >= r
+                    || norm(sub(self.deps[s].position, self.deps[r].position))
+                        < Goldak::rear(d.width) =>
             {
                 Support::JustLaid
             }
