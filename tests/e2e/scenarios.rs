@@ -34,7 +34,8 @@ fn every_library_shape_has_a_scenario() {
         .iter()
         .map(|f| std::fs::read_to_string(f).unwrap())
         .collect();
-    for name in planner::shapes::Shape::NAMES
+    for name in planner::shapes::SIGNATURES
+        .map(|s| s.name)
         .iter()
         .filter(|n| **n != "disk")
     {

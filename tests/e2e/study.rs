@@ -203,3 +203,46 @@ fn slurm_runs_a_study_as_a_job_array() {
         std::fs::read_to_string(local.join("summary.csv")).unwrap()
     );
 }
+
+/// A case whose overrides make a bad scenario is refused before anything runs, in one line that
+/// names the study file, the case, its overrides and the key with its value, and no line number
+/// of text the user never wrote.
+#[test]
+fn a_bad_case_names_the_study_file_and_the_case() {
+    let dir = scratch("study_bad_case");
+    std::fs::write(
+        dir.join("base.toml"),
+        "[part]\nshape = \"cylinder\"\nradius_mm = 25.0\nheight_mm = 14.0\n",
+    )
+    .unwrap();
+    let study = dir.join("bad_study.toml");
+    std::fs::write(
+        &study,
+        "base = \"base.toml\"\n[[case]]\n\"thermal.voxel_mm\" = 1.0\n[[case]]\n\"thermal.voxel_mm\" = 0.01\n",
+    )
+    .unwrap();
+    let out = study_cmd(&[
+        study.to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ])
+    .output()
+    .unwrap();
+    crate::assert_input_error(
+        &out,
+        &[
+            "bad_study.toml case 001",
+            "thermal.voxel_mm = 0.01",
+            "expected between 0.25 and 20",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains(" line "), "{err}");
+    assert!(
+        !dir.join("out")
+            .join("cases")
+            .join("000")
+            .join("manifest.json")
+            .exists()
+    );
+}

@@ -3,7 +3,10 @@
 //! Every shape stands on z = 0 with its lower boundary there (the substrate), except where its
 //! doc says otherwise. Lengths in mm.
 
+mod params;
 mod rings;
+
+pub use params::{SIGNATURES, ShapeError, Signature};
 
 use crate::mesh::TriMesh;
 use nalgebra::Point3;
@@ -51,17 +54,6 @@ pub enum Shape {
 }
 
 impl Shape {
-    /// The library's names, as scenario files spell them.
-    pub const NAMES: [&'static str; 7] = [
-        "cylinder",
-        "cone_frustum",
-        "vase",
-        "hemisphere",
-        "asymmetric_dome",
-        "quarter_torus",
-        "disk",
-    ];
-
     pub fn name(&self) -> &'static str {
         match self {
             Shape::Cylinder { .. } => "cylinder",

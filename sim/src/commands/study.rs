@@ -33,6 +33,8 @@ pub struct Case {
 }
 
 pub struct Study {
+    /// The study file, as messages name it.
+    pub file: String,
     pub base_text: String,
     pub base_dir: PathBuf,
     pub command: String,
@@ -110,6 +112,7 @@ pub fn load(path: &Path) -> Result<Study> {
         })
         .collect();
     let study = Study {
+        file: file.clone(),
         base_text,
         base_dir: dir,
         command,
@@ -117,32 +120,42 @@ pub fn load(path: &Path) -> Result<Study> {
     };
     // Every case must be a valid scenario before anything runs.
     for c in &study.cases {
-        study
-            .scenario(c)
-            .map_err(|e| e.context(format!("{file} case {}", c.id)))?;
+        study.scenario(c)?;
     }
     Ok(study)
 }
 
 impl Study {
-    /// The base scenario with a case's overrides ("section.key" = value).
+    /// The base scenario with a case's overrides ("section.key" = value). Errors name the
+    /// study file, the case and its overrides.
     pub fn scenario(&self, c: &Case) -> Result<Scenario> {
+        let what = format!(
+            "{} case {} ({})",
+            self.file,
+            c.id,
+            c.overrides
+                .iter()
+                .map(|(k, v)| format!("{k} = {v}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        let fail = |m: String| Error::input(format!("{what}: {m}"));
         let mut t: toml::Table =
-            toml::from_str(&self.base_text).map_err(|e| Error::input(e.message().to_string()))?;
+            toml::from_str(&self.base_text).map_err(|e| fail(e.message().into()))?;
         for (key, value) in &c.overrides {
-            let (section, name) = key.split_once('.').ok_or_else(|| {
-                Error::input(format!("override \"{key}\"; expected \"section.key\""))
-            })?;
+            let (section, name) = key
+                .split_once('.')
+                .ok_or_else(|| fail(format!("override \"{key}\"; expected \"section.key\"")))?;
             let entry = t
                 .entry(section.to_string())
                 .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-            let table = entry.as_table_mut().ok_or_else(|| {
-                Error::input(format!("override \"{key}\": {section} is not a section"))
-            })?;
+            let table = entry
+                .as_table_mut()
+                .ok_or_else(|| fail(format!("override \"{key}\": {section} is not a section")))?;
             table.insert(name.to_string(), value.clone());
         }
         let text = toml::to_string(&t).map_err(|e| Error::failure(e.to_string()))?;
-        Scenario::parse(&text, &format!("case {}", c.id), &self.base_dir)
+        Scenario::parse_generated(&text, &what, &self.base_dir)
     }
 }
 

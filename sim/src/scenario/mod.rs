@@ -68,13 +68,23 @@ impl Scenario {
         Scenario::parse(&text, &path.display().to_string(), base)
     }
 
-    /// Parse scenario text; `file` names it in messages.
+    /// Parse scenario text; `file` names it in messages, with the line of the key.
     pub fn parse(text: &str, file: &str, base: &Path) -> Result<Scenario> {
+        Scenario::parse_with(text, file, base, true)
+    }
+
+    /// Parse scenario text that no user wrote (a study case: a base scenario with overrides):
+    /// `what` names it in messages, and no line is given, since the user has no such file.
+    pub fn parse_generated(text: &str, what: &str, base: &Path) -> Result<Scenario> {
+        Scenario::parse_with(text, what, base, false)
+    }
+
+    fn parse_with(text: &str, file: &str, base: &Path, lines: bool) -> Result<Scenario> {
         let raw: RawScenario = toml::from_str(text).map_err(|e| {
             // A missing field's span is the whole table: no line says more than the message.
             let line = e
                 .span()
-                .filter(|_| !e.message().starts_with("missing field"))
+                .filter(|_| lines && !e.message().starts_with("missing field"))
                 .map(|s| line_of(text, s.start));
             let at = match line {
                 Some(l) => format!(
@@ -85,424 +95,21 @@ impl Scenario {
             };
             Error::input(format!("{file}{at}: {}", e.message()))
         })?;
-        let c = Checker { text, file };
+        let c = Checker { text, file, lines };
         Scenario::from_raw(raw, &c, base)
     }
 
+    /// One small conversion per section, each naming its own keys in its errors.
     fn from_raw(raw: RawScenario, c: &Checker, base: &Path) -> Result<Scenario> {
-        let part = part_spec(&raw.part, c, base)?;
-        let p = &raw.process;
-        c.positive("process", "wire_diameter_mm", p.wire_diameter_mm, 5.0)?;
-        c.positive("process", "bead_width_mm", p.bead_width_mm, 50.0)?;
-        c.positive("process", "travel_speed_mm_s", p.travel_speed_mm_s, 1000.0)?;
-        c.positive("process", "deposit_mm", p.deposit_mm, 20.0)?;
-        c.positive("process", "deposit_min_mm", p.deposit_min_mm, 20.0)?;
-        c.positive("process", "deposit_max_mm", p.deposit_max_mm, 20.0)?;
-        if p.deposit_min_mm > p.deposit_mm {
-            return Err(c.fail(
-                "process",
-                "deposit_min_mm",
-                p.deposit_min_mm,
-                &format!("at most deposit_mm ({})", p.deposit_mm),
-            ));
-        }
-        if p.deposit_max_mm < p.deposit_mm {
-            return Err(c.fail(
-                "process",
-                "deposit_max_mm",
-                p.deposit_max_mm,
-                &format!("at least deposit_mm ({})", p.deposit_mm),
-            ));
-        }
-        c.positive("process", "wfs_min_m_min", p.wfs_min_m_min, 50.0)?;
-        c.positive("process", "wfs_max_m_min", p.wfs_max_m_min, 50.0)?;
-        if p.wfs_max_m_min < p.wfs_min_m_min {
-            return Err(c.fail(
-                "process",
-                "wfs_max_m_min",
-                p.wfs_max_m_min,
-                &format!("at least wfs_min_m_min ({})", p.wfs_min_m_min),
-            ));
-        }
-        c.positive("process", "travel_min_mm_s", p.travel_min_mm_s, 1000.0)?;
-        c.positive("process", "travel_max_mm_s", p.travel_max_mm_s, 1000.0)?;
-        if p.travel_max_mm_s < p.travel_min_mm_s {
-            return Err(c.fail(
-                "process",
-                "travel_max_mm_s",
-                p.travel_max_mm_s,
-                &format!("at least travel_min_mm_s ({})", p.travel_min_mm_s),
-            ));
-        }
-        c.positive("process", "arc_power_w", p.arc_power_w, 50_000.0)?;
-        c.range("process", "efficiency", p.efficiency, 0.0, 1.0, "in (0, 1]")?;
-        if p.efficiency == 0.0 {
-            return Err(c.fail("process", "efficiency", 0.0, "in (0, 1]"));
-        }
-        let modulation = match p.modulation.as_str() {
-            "wire_feed" => Modulation::WireFeed {
-                travel: p.travel_speed_mm_s * MM,
-            },
-            "travel_speed" => {
-                let wfs = match p.wfs_m_min {
-                    Some(w) => {
-                        c.positive("process", "wfs_m_min", w, 50.0)?;
-                        w * M_MIN
-                    }
-                    None => bead_model::eq7::wire_feed(
-                        p.deposit_mm * MM,
-                        p.wire_diameter_mm * MM,
-                        p.bead_width_mm * MM,
-                        p.travel_speed_mm_s * MM,
-                    ),
-                };
-                Modulation::TravelSpeed { wfs }
-            }
-            other => {
-                return Err(c.fail(
-                    "process",
-                    "modulation",
-                    format!("\"{other}\""),
-                    "\"wire_feed\" or \"travel_speed\"",
-                ));
-            }
-        };
-        let power = match p.power_model.as_str() {
-            "fixed" => ArcPower::Fixed {
-                watts: p.arc_power_w,
-            },
-            "synergic" => {
-                let line = match (
-                    &p.synergic_wfs_m_min,
-                    &p.synergic_current_a,
-                    &p.synergic_voltage_v,
-                ) {
-                    (None, None, None) => SynergicLine::g3si_cmt_1mm(),
-                    (Some(w), Some(i), Some(u)) => SynergicLine {
-                        wfs: w.iter().map(|x| x * M_MIN).collect(),
-                        current_a: i.clone(),
-                        voltage_v: u.clone(),
-                    },
-                    _ => {
-                        return Err(c.fail("process", "synergic_wfs_m_min", "(incomplete)", "all three of synergic_wfs_m_min, synergic_current_a, synergic_voltage_v, or none"));
-                    }
-                };
-                line.validate()
-                    .map_err(|e| c.fail("process", "synergic_wfs_m_min", "(table)", &e))?;
-                ArcPower::Synergic(line)
-            }
-            other => {
-                return Err(c.fail(
-                    "process",
-                    "power_model",
-                    format!("\"{other}\""),
-                    "\"fixed\" or \"synergic\"",
-                ));
-            }
-        };
-        let section = match p.bead_section.as_str() {
-            "rectangle" => Section::Rectangle,
-            "parabolic" => Section::Parabolic,
-            "circular" => Section::Circular,
-            other => {
-                return Err(c.fail(
-                    "process",
-                    "bead_section",
-                    format!("\"{other}\""),
-                    "\"rectangle\", \"parabolic\" or \"circular\"",
-                ));
-            }
-        };
-        let process = Process {
-            modulation,
-            power,
-            section,
-            wire_diameter_m: p.wire_diameter_mm * MM,
-            bead_width_m: p.bead_width_mm * MM,
-            travel_speed_m_s: p.travel_speed_mm_s * MM,
-            deposit_m: p.deposit_mm * MM,
-            deposit_min_m: p.deposit_min_mm * MM,
-            deposit_max_m: p.deposit_max_mm * MM,
-            wfs_min_m_s: p.wfs_min_m_min * M_MIN,
-            wfs_max_m_s: p.wfs_max_m_min * M_MIN,
-            travel_min_m_s: p.travel_min_mm_s * MM,
-            travel_max_m_s: p.travel_max_mm_s * MM,
-            arc_power_w: p.arc_power_w,
-            efficiency: p.efficiency,
-        };
-        let material = material(&raw.material, c)?;
-        let t = &raw.thermal;
-        let model = match t.model.as_str() {
-            "fe" => ThermalModel::Fe,
-            "voxel" => ThermalModel::Voxel,
-            other => {
-                return Err(c.fail(
-                    "thermal",
-                    "model",
-                    format!("\"{other}\""),
-                    "\"fe\" or \"voxel\"",
-                ));
-            }
-        };
-        c.range(
-            "thermal",
-            "ambient_c",
-            t.ambient_c,
-            -50.0,
-            100.0,
-            "between -50 and 100",
-        )?;
-        c.range(
-            "thermal",
-            "convection_w_m2k",
-            t.convection_w_m2k,
-            0.0,
-            10_000.0,
-            "between 0 and 10000",
-        )?;
-        c.range(
-            "thermal",
-            "emissivity",
-            t.emissivity,
-            0.0,
-            1.0,
-            "between 0 and 1",
-        )?;
-        for (k, v) in t.plate_mm.iter().enumerate() {
-            if !(v.is_finite() && *v > 0.0 && *v <= 10_000.0) {
-                return Err(c.fail(
-                    "thermal",
-                    "plate_mm",
-                    format!("{:?}", t.plate_mm),
-                    &format!("three sizes in (0, 10000] mm (entry {k} is {v})"),
-                ));
-            }
-        }
-        c.range(
-            "thermal",
-            "lead_mm",
-            t.lead_mm,
-            0.0,
-            1000.0,
-            "between 0 and 1000",
-        )?;
-        c.range(
-            "thermal",
-            "table_contact_w_m2k",
-            t.table_contact_w_m2k,
-            0.0,
-            1e5,
-            "between 0 and 100000",
-        )?;
-        c.range(
-            "thermal",
-            "plate_cell_mm",
-            t.plate_cell_mm,
-            0.5,
-            100.0,
-            "between 0.5 and 100",
-        )?;
-        c.range(
-            "thermal",
-            "node_mm",
-            t.node_mm,
-            0.1,
-            50.0,
-            "between 0.1 and 50",
-        )?;
-        c.range(
-            "thermal",
-            "deposit_c",
-            t.deposit_c,
-            500.0,
-            3000.0,
-            "between 500 and 3000",
-        )?;
-        c.range(
-            "thermal",
-            "hot_threshold_c",
-            t.hot_threshold_c,
-            0.0,
-            3000.0,
-            "between 0 and 3000",
-        )?;
-        c.range(
-            "thermal",
-            "voxel_mm",
-            t.voxel_mm,
-            0.25,
-            20.0,
-            "between 0.25 and 20",
-        )?;
-        if let Some(f) = t.footprint_mm {
-            c.positive("thermal", "footprint_mm", f, 100.0)?;
-        }
-        let temperature_dependent = match t.properties.as_str() {
-            "temperature" => true,
-            "constant" => false,
-            other => {
-                return Err(c.fail(
-                    "thermal",
-                    "properties",
-                    format!("\"{other}\""),
-                    "\"temperature\" or \"constant\"",
-                ));
-            }
-        };
-        let thermal = ThermalSettings {
-            table_contact_w_m2k: t.table_contact_w_m2k,
-            plate_cell_m: t.plate_cell_mm * MM,
-            node_m: t.node_mm * MM,
-            deposit_k: t.deposit_c + KELVIN,
-            footprint_m: t.footprint_mm.unwrap_or(p.bead_width_mm) * MM,
-            hot_threshold_k: t.hot_threshold_c + KELVIN,
-            temperature_dependent,
-            voxel_m: t.voxel_mm * MM,
-            model,
-            ambient_k: t.ambient_c + KELVIN,
-            convection_w_m2k: t.convection_w_m2k,
-            emissivity: t.emissivity,
-            plate_m: t.plate_mm.map(|v| v * MM),
-            lead_m: t.lead_mm * MM,
-        };
-        c.range(
-            "dwell",
-            "interpass_max_c",
-            raw.dwell.interpass_max_c,
-            20.0,
-            1500.0,
-            "between 20 and 1500",
-        )?;
-        let d = &raw.dwell;
-        for (k, name) in d.criteria.iter().enumerate() {
-            if !["interpass", "strength", "humping", "bond"].contains(&name.as_str()) {
-                return Err(c.fail(
-                    "dwell",
-                    "criteria",
-                    format!("[{}]", d.criteria.join(", ")),
-                    &format!(
-                        "names among interpass, strength, humping, bond (entry {k} is \"{name}\")"
-                    ),
-                ));
-            }
-        }
-        if d.policy != "revolution" {
-            return Err(c.fail(
-                "dwell",
-                "policy",
-                format!("\"{}\"", d.policy),
-                "\"revolution\" (dwells before a revolution's first preheat reading)",
-            ));
-        }
-        c.range(
-            "dwell",
-            "strength_loss_c",
-            d.strength_loss_c,
-            100.0,
-            1500.0,
-            "between 100 and 1500",
-        )?;
-        c.positive("dwell", "max_dwell_s", d.max_dwell_s, 86_400.0)?;
-        c.range(
-            "dwell",
-            "margin_c",
-            d.margin_c,
-            0.0,
-            100.0,
-            "between 0 and 100",
-        )?;
-        c.range(
-            "dwell",
-            "count_weight_s",
-            d.count_weight_s,
-            0.0,
-            86_400.0,
-            "between 0 and 86400",
-        )?;
-        if let Some(z) = d.closing_zone_mm {
-            c.positive("dwell", "closing_zone_mm", z, 10_000.0)?;
-        }
-        let on = |n: &str| d.criteria.iter().any(|x| x == n);
-        let dwell = DwellSettings {
-            interpass_max_k: raw.dwell.interpass_max_c + KELVIN,
-            interpass: on("interpass"),
-            strength_loss_k: on("strength").then_some(d.strength_loss_c + KELVIN),
-            humping: on("humping"),
-            bond: on("bond"),
-            max_dwell_s: d.max_dwell_s,
-            margin_k: d.margin_c,
-            count_weight_s: d.count_weight_s,
-            closing_zone_mm: d.closing_zone_mm.unwrap_or(3.0 * raw.process.bead_width_mm),
-        };
-        let pl = &raw.planner;
-        if !(8..=100_000).contains(&pl.n_points) {
-            return Err(c.fail("planner", "n_points", pl.n_points, "between 8 and 100000"));
-        }
-        c.positive("planner", "gap_max_mm", pl.gap_max_mm, 100.0)?;
-        c.range(
-            "planner",
-            "deposit_tolerance_mm",
-            pl.deposit_tolerance_mm,
-            0.0,
-            1.0,
-            "between 0 and 1",
-        )?;
-        c.positive("planner", "nozzle_radius_mm", pl.nozzle_radius_mm, 500.0)?;
-        c.range(
-            "planner",
-            "nozzle_standoff_mm",
-            pl.nozzle_standoff_mm,
-            0.0,
-            500.0,
-            "between 0 and 500",
-        )?;
-        c.positive("planner", "nozzle_length_mm", pl.nozzle_length_mm, 5000.0)?;
-        let planner = PlannerSettings {
-            n_points: pl.n_points,
-            gap_max_mm: pl.gap_max_mm,
-            deposit_tolerance_mm: pl.deposit_tolerance_mm,
-            nozzle: planner::collision::Nozzle {
-                radius_mm: pl.nozzle_radius_mm,
-                standoff_mm: pl.nozzle_standoff_mm,
-                length_mm: pl.nozzle_length_mm,
-            },
-        };
-        let b = &raw.bead;
-        c.positive("bead", "bond_max", b.bond_max, 100.0)?;
-        c.range(
-            "bead",
-            "hot_height_loss_per_k",
-            b.hot_height_loss_per_k,
-            0.0,
-            0.01,
-            "between 0 and 0.01 per K",
-        )?;
-        c.range(
-            "bead",
-            "hot_reference_c",
-            b.hot_reference_c,
-            -50.0,
-            1500.0,
-            "between -50 and 1500",
-        )?;
-        c.positive("bead", "stickout_mm", b.stickout_mm, 100.0)?;
-        let bead = BeadSettings {
-            bond_max: b.bond_max,
-            hot_metal: HotMetalLaw {
-                reference_k: b.hot_reference_c + KELVIN,
-                height_loss_per_k: b.hot_height_loss_per_k,
-                min_factor: 0.5,
-            },
-            stickout_m: b.stickout_mm * MM,
-        };
+        let width = raw.process.bead_width_mm;
         Ok(Scenario {
-            part,
-            process,
-            material,
-            thermal,
-            dwell,
-            planner,
-            bead,
+            part: part_spec(&raw.part, c, base)?,
+            process: process(&raw.process, c)?,
+            material: material(&raw.material, c)?,
+            thermal: thermal(&raw.thermal, width, c)?,
+            dwell: dwell(&raw.dwell, width, c)?,
+            planner: planner(&raw.planner, c)?,
+            bead: bead(&raw.bead, c)?,
             output: raw.output.clone(),
             raw,
         })
@@ -548,6 +155,421 @@ impl Scenario {
     }
 }
 
+fn process(p: &RawProcess, c: &Checker) -> Result<Process> {
+    c.positive("process", "wire_diameter_mm", p.wire_diameter_mm, 5.0)?;
+    c.positive("process", "bead_width_mm", p.bead_width_mm, 50.0)?;
+    c.positive("process", "travel_speed_mm_s", p.travel_speed_mm_s, 1000.0)?;
+    c.positive("process", "deposit_mm", p.deposit_mm, 20.0)?;
+    c.positive("process", "deposit_min_mm", p.deposit_min_mm, 20.0)?;
+    c.positive("process", "deposit_max_mm", p.deposit_max_mm, 20.0)?;
+    if p.deposit_min_mm > p.deposit_mm {
+        return Err(c.fail(
+            "process",
+            "deposit_min_mm",
+            p.deposit_min_mm,
+            &format!("at most deposit_mm ({})", p.deposit_mm),
+        ));
+    }
+    if p.deposit_max_mm < p.deposit_mm {
+        return Err(c.fail(
+            "process",
+            "deposit_max_mm",
+            p.deposit_max_mm,
+            &format!("at least deposit_mm ({})", p.deposit_mm),
+        ));
+    }
+    c.positive("process", "wfs_min_m_min", p.wfs_min_m_min, 50.0)?;
+    c.positive("process", "wfs_max_m_min", p.wfs_max_m_min, 50.0)?;
+    if p.wfs_max_m_min < p.wfs_min_m_min {
+        return Err(c.fail(
+            "process",
+            "wfs_max_m_min",
+            p.wfs_max_m_min,
+            &format!("at least wfs_min_m_min ({})", p.wfs_min_m_min),
+        ));
+    }
+    c.positive("process", "travel_min_mm_s", p.travel_min_mm_s, 1000.0)?;
+    c.positive("process", "travel_max_mm_s", p.travel_max_mm_s, 1000.0)?;
+    if p.travel_max_mm_s < p.travel_min_mm_s {
+        return Err(c.fail(
+            "process",
+            "travel_max_mm_s",
+            p.travel_max_mm_s,
+            &format!("at least travel_min_mm_s ({})", p.travel_min_mm_s),
+        ));
+    }
+    c.positive("process", "arc_power_w", p.arc_power_w, 50_000.0)?;
+    c.range("process", "efficiency", p.efficiency, 0.0, 1.0, "in (0, 1]")?;
+    if p.efficiency == 0.0 {
+        return Err(c.fail("process", "efficiency", 0.0, "in (0, 1]"));
+    }
+    let modulation = match p.modulation.as_str() {
+        "wire_feed" => Modulation::WireFeed {
+            travel: p.travel_speed_mm_s * MM,
+        },
+        "travel_speed" => {
+            let wfs = match p.wfs_m_min {
+                Some(w) => {
+                    c.positive("process", "wfs_m_min", w, 50.0)?;
+                    w * M_MIN
+                }
+                None => bead_model::eq7::wire_feed(
+                    p.deposit_mm * MM,
+                    p.wire_diameter_mm * MM,
+                    p.bead_width_mm * MM,
+                    p.travel_speed_mm_s * MM,
+                ),
+            };
+            Modulation::TravelSpeed { wfs }
+        }
+        other => {
+            return Err(c.fail(
+                "process",
+                "modulation",
+                format!("\"{other}\""),
+                "\"wire_feed\" or \"travel_speed\"",
+            ));
+        }
+    };
+    let power = match p.power_model.as_str() {
+        "fixed" => ArcPower::Fixed {
+            watts: p.arc_power_w,
+        },
+        "synergic" => {
+            let line = match (
+                &p.synergic_wfs_m_min,
+                &p.synergic_current_a,
+                &p.synergic_voltage_v,
+            ) {
+                (None, None, None) => SynergicLine::g3si_cmt_1mm(),
+                (Some(w), Some(i), Some(u)) => SynergicLine {
+                    wfs: w.iter().map(|x| x * M_MIN).collect(),
+                    current_a: i.clone(),
+                    voltage_v: u.clone(),
+                },
+                _ => {
+                    return Err(c.fail("process", "synergic_wfs_m_min", "(incomplete)", "all three of synergic_wfs_m_min, synergic_current_a, synergic_voltage_v, or none"));
+                }
+            };
+            line.validate()
+                .map_err(|e| c.fail("process", "synergic_wfs_m_min", "(table)", &e))?;
+            ArcPower::Synergic(line)
+        }
+        other => {
+            return Err(c.fail(
+                "process",
+                "power_model",
+                format!("\"{other}\""),
+                "\"fixed\" or \"synergic\"",
+            ));
+        }
+    };
+    let section = match p.bead_section.as_str() {
+        "rectangle" => Section::Rectangle,
+        "parabolic" => Section::Parabolic,
+        "circular" => Section::Circular,
+        other => {
+            return Err(c.fail(
+                "process",
+                "bead_section",
+                format!("\"{other}\""),
+                "\"rectangle\", \"parabolic\" or \"circular\"",
+            ));
+        }
+    };
+    Ok(Process {
+        modulation,
+        power,
+        section,
+        wire_diameter_m: p.wire_diameter_mm * MM,
+        bead_width_m: p.bead_width_mm * MM,
+        travel_speed_m_s: p.travel_speed_mm_s * MM,
+        deposit_m: p.deposit_mm * MM,
+        deposit_min_m: p.deposit_min_mm * MM,
+        deposit_max_m: p.deposit_max_mm * MM,
+        wfs_min_m_s: p.wfs_min_m_min * M_MIN,
+        wfs_max_m_s: p.wfs_max_m_min * M_MIN,
+        travel_min_m_s: p.travel_min_mm_s * MM,
+        travel_max_m_s: p.travel_max_mm_s * MM,
+        arc_power_w: p.arc_power_w,
+        efficiency: p.efficiency,
+    })
+}
+
+/// `[thermal]`; the footprint defaults to the bead width.
+fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSettings> {
+    let model = match t.model.as_str() {
+        "fe" => ThermalModel::Fe,
+        "voxel" => ThermalModel::Voxel,
+        other => {
+            return Err(c.fail(
+                "thermal",
+                "model",
+                format!("\"{other}\""),
+                "\"fe\" or \"voxel\"",
+            ));
+        }
+    };
+    c.range(
+        "thermal",
+        "ambient_c",
+        t.ambient_c,
+        -50.0,
+        100.0,
+        "between -50 and 100",
+    )?;
+    c.range(
+        "thermal",
+        "convection_w_m2k",
+        t.convection_w_m2k,
+        0.0,
+        10_000.0,
+        "between 0 and 10000",
+    )?;
+    c.range(
+        "thermal",
+        "emissivity",
+        t.emissivity,
+        0.0,
+        1.0,
+        "between 0 and 1",
+    )?;
+    for (k, v) in t.plate_mm.iter().enumerate() {
+        if !(v.is_finite() && *v > 0.0 && *v <= 10_000.0) {
+            return Err(c.fail(
+                "thermal",
+                "plate_mm",
+                format!("{:?}", t.plate_mm),
+                &format!("three sizes in (0, 10000] mm (entry {k} is {v})"),
+            ));
+        }
+    }
+    c.range(
+        "thermal",
+        "lead_mm",
+        t.lead_mm,
+        0.0,
+        1000.0,
+        "between 0 and 1000",
+    )?;
+    c.range(
+        "thermal",
+        "table_contact_w_m2k",
+        t.table_contact_w_m2k,
+        0.0,
+        1e5,
+        "between 0 and 100000",
+    )?;
+    c.range(
+        "thermal",
+        "plate_cell_mm",
+        t.plate_cell_mm,
+        0.5,
+        100.0,
+        "between 0.5 and 100",
+    )?;
+    c.range(
+        "thermal",
+        "node_mm",
+        t.node_mm,
+        0.1,
+        50.0,
+        "between 0.1 and 50",
+    )?;
+    c.range(
+        "thermal",
+        "deposit_c",
+        t.deposit_c,
+        500.0,
+        3000.0,
+        "between 500 and 3000",
+    )?;
+    c.range(
+        "thermal",
+        "hot_threshold_c",
+        t.hot_threshold_c,
+        0.0,
+        3000.0,
+        "between 0 and 3000",
+    )?;
+    c.range(
+        "thermal",
+        "voxel_mm",
+        t.voxel_mm,
+        0.25,
+        20.0,
+        "between 0.25 and 20",
+    )?;
+    if let Some(f) = t.footprint_mm {
+        c.positive("thermal", "footprint_mm", f, 100.0)?;
+    }
+    let temperature_dependent = match t.properties.as_str() {
+        "temperature" => true,
+        "constant" => false,
+        other => {
+            return Err(c.fail(
+                "thermal",
+                "properties",
+                format!("\"{other}\""),
+                "\"temperature\" or \"constant\"",
+            ));
+        }
+    };
+    Ok(ThermalSettings {
+        table_contact_w_m2k: t.table_contact_w_m2k,
+        plate_cell_m: t.plate_cell_mm * MM,
+        node_m: t.node_mm * MM,
+        deposit_k: t.deposit_c + KELVIN,
+        footprint_m: t.footprint_mm.unwrap_or(bead_width_mm) * MM,
+        hot_threshold_k: t.hot_threshold_c + KELVIN,
+        temperature_dependent,
+        voxel_m: t.voxel_mm * MM,
+        model,
+        ambient_k: t.ambient_c + KELVIN,
+        convection_w_m2k: t.convection_w_m2k,
+        emissivity: t.emissivity,
+        plate_m: t.plate_mm.map(|v| v * MM),
+        lead_m: t.lead_mm * MM,
+    })
+}
+
+/// `[dwell]`; the closing zone defaults to three bead widths.
+fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings> {
+    c.range(
+        "dwell",
+        "interpass_max_c",
+        d.interpass_max_c,
+        20.0,
+        1500.0,
+        "between 20 and 1500",
+    )?;
+    for (k, name) in d.criteria.iter().enumerate() {
+        if !["interpass", "strength", "humping", "bond"].contains(&name.as_str()) {
+            return Err(c.fail(
+                "dwell",
+                "criteria",
+                format!("[{}]", d.criteria.join(", ")),
+                &format!(
+                    "names among interpass, strength, humping, bond (entry {k} is \"{name}\")"
+                ),
+            ));
+        }
+    }
+    if d.policy != "revolution" {
+        return Err(c.fail(
+            "dwell",
+            "policy",
+            format!("\"{}\"", d.policy),
+            "\"revolution\" (dwells before a revolution's first preheat reading)",
+        ));
+    }
+    c.range(
+        "dwell",
+        "strength_loss_c",
+        d.strength_loss_c,
+        100.0,
+        1500.0,
+        "between 100 and 1500",
+    )?;
+    c.positive("dwell", "max_dwell_s", d.max_dwell_s, 86_400.0)?;
+    c.range(
+        "dwell",
+        "margin_c",
+        d.margin_c,
+        0.0,
+        100.0,
+        "between 0 and 100",
+    )?;
+    c.range(
+        "dwell",
+        "count_weight_s",
+        d.count_weight_s,
+        0.0,
+        86_400.0,
+        "between 0 and 86400",
+    )?;
+    if let Some(z) = d.closing_zone_mm {
+        c.positive("dwell", "closing_zone_mm", z, 10_000.0)?;
+    }
+    let on = |n: &str| d.criteria.iter().any(|x| x == n);
+    Ok(DwellSettings {
+        interpass_max_k: d.interpass_max_c + KELVIN,
+        interpass: on("interpass"),
+        strength_loss_k: on("strength").then_some(d.strength_loss_c + KELVIN),
+        humping: on("humping"),
+        bond: on("bond"),
+        max_dwell_s: d.max_dwell_s,
+        margin_k: d.margin_c,
+        count_weight_s: d.count_weight_s,
+        closing_zone_mm: d.closing_zone_mm.unwrap_or(3.0 * bead_width_mm),
+    })
+}
+
+fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
+    if !(8..=100_000).contains(&pl.n_points) {
+        return Err(c.fail("planner", "n_points", pl.n_points, "between 8 and 100000"));
+    }
+    c.positive("planner", "gap_max_mm", pl.gap_max_mm, 100.0)?;
+    c.range(
+        "planner",
+        "deposit_tolerance_mm",
+        pl.deposit_tolerance_mm,
+        0.0,
+        1.0,
+        "between 0 and 1",
+    )?;
+    c.positive("planner", "nozzle_radius_mm", pl.nozzle_radius_mm, 500.0)?;
+    c.range(
+        "planner",
+        "nozzle_standoff_mm",
+        pl.nozzle_standoff_mm,
+        0.0,
+        500.0,
+        "between 0 and 500",
+    )?;
+    c.positive("planner", "nozzle_length_mm", pl.nozzle_length_mm, 5000.0)?;
+    Ok(PlannerSettings {
+        n_points: pl.n_points,
+        gap_max_mm: pl.gap_max_mm,
+        deposit_tolerance_mm: pl.deposit_tolerance_mm,
+        nozzle: planner::collision::Nozzle {
+            radius_mm: pl.nozzle_radius_mm,
+            standoff_mm: pl.nozzle_standoff_mm,
+            length_mm: pl.nozzle_length_mm,
+        },
+    })
+}
+
+fn bead(b: &RawBead, c: &Checker) -> Result<BeadSettings> {
+    c.positive("bead", "bond_max", b.bond_max, 100.0)?;
+    c.range(
+        "bead",
+        "hot_height_loss_per_k",
+        b.hot_height_loss_per_k,
+        0.0,
+        0.01,
+        "between 0 and 0.01 per K",
+    )?;
+    c.range(
+        "bead",
+        "hot_reference_c",
+        b.hot_reference_c,
+        -50.0,
+        1500.0,
+        "between -50 and 1500",
+    )?;
+    c.positive("bead", "stickout_mm", b.stickout_mm, 100.0)?;
+    Ok(BeadSettings {
+        bond_max: b.bond_max,
+        hot_metal: HotMetalLaw {
+            reference_k: b.hot_reference_c + KELVIN,
+            height_loss_per_k: b.hot_height_loss_per_k,
+            min_factor: 0.5,
+        },
+        stickout_m: b.stickout_mm * MM,
+    })
+}
+
 fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {
     let lower = p.lower_loop.map(LowerLoop::Index).unwrap_or_default();
     let source = match (&p.mesh, &p.shape) {
@@ -589,7 +611,7 @@ fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {
             let shape = shape(name, p, c)?;
             let edge_mm = p.edge_mm.unwrap_or(2.0);
             c.positive("part", "edge_mm", edge_mm, 100.0)?;
-            let size = extent_mm(&shape);
+            let size = shape.extent_mm();
             if size / edge_mm > 2000.0 {
                 return Err(c.fail(
                     "part",
@@ -615,179 +637,9 @@ fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {
     Ok(PartSpec { source, lower })
 }
 
-/// The largest dimension of a shape, for the mesh-size guard.
-fn extent_mm(shape: &Shape) -> f64 {
-    match *shape {
-        Shape::Cylinder {
-            radius_mm,
-            height_mm,
-        } => (2.0 * radius_mm).max(height_mm),
-        Shape::ConeFrustum {
-            radius_mm,
-            top_radius_mm,
-            height_mm,
-        } => (2.0 * radius_mm.max(top_radius_mm)).max(height_mm),
-        Shape::Vase {
-            radius_mm,
-            height_mm,
-            bulge_mm,
-            top_slope_mm,
-            top_wave_mm,
-            ..
-        } => (2.0 * (radius_mm + bulge_mm.abs()))
-            .max(height_mm + top_slope_mm.abs() + top_wave_mm.abs()),
-        Shape::Hemisphere { radius_mm } | Shape::Disk { radius_mm } => 2.0 * radius_mm,
-        Shape::AsymmetricDome {
-            radius_mm,
-            height_mm,
-            lean_mm,
-        } => (2.0 * radius_mm + lean_mm.abs()).max(height_mm),
-        Shape::QuarterTorus {
-            bend_radius_mm,
-            tube_radius_mm,
-        } => bend_radius_mm + tube_radius_mm,
-    }
-}
-
+/// A library shape from `[part]`; its parameters are checked by the planner's shape table.
 fn shape(name: &str, p: &RawPart, c: &Checker) -> Result<Shape> {
-    let given: [(&str, Option<f64>); 10] = [
-        ("radius_mm", p.radius_mm),
-        ("top_radius_mm", p.top_radius_mm),
-        ("height_mm", p.height_mm),
-        ("bulge_mm", p.bulge_mm),
-        ("top_slope_mm", p.top_slope_mm),
-        ("top_wave_mm", p.top_wave_mm),
-        ("top_waves", p.top_waves.map(f64::from)),
-        ("lean_mm", p.lean_mm),
-        ("bend_radius_mm", p.bend_radius_mm),
-        ("tube_radius_mm", p.tube_radius_mm),
-    ];
-    let (needs, optional): (&[&str], &[&str]) = match name {
-        "cylinder" => (&["radius_mm", "height_mm"], &[]),
-        "cone_frustum" => (&["radius_mm", "top_radius_mm", "height_mm"], &[]),
-        "vase" => (
-            &["radius_mm", "height_mm"],
-            &["bulge_mm", "top_slope_mm", "top_wave_mm", "top_waves"],
-        ),
-        "hemisphere" | "disk" => (&["radius_mm"], &[]),
-        "asymmetric_dome" => (&["radius_mm", "height_mm"], &["lean_mm"]),
-        "quarter_torus" => (&["bend_radius_mm", "tube_radius_mm"], &[]),
-        other => {
-            return Err(c.fail(
-                "part",
-                "shape",
-                format!("\"{other}\""),
-                &format!("one of {}", Shape::NAMES.join(", ")),
-            ));
-        }
-    };
-    for (key, v) in given {
-        if let Some(v) = v.filter(|_| !needs.contains(&key) && !optional.contains(&key)) {
-            return Err(c.fail(
-                "part",
-                key,
-                v,
-                &format!(
-                    "no {key} for shape \"{name}\" (it takes {})",
-                    [needs, optional].concat().join(", ")
-                ),
-            ));
-        }
-    }
-    let get = |key: &str| -> Result<f64> {
-        let v = given.iter().find(|(k, _)| *k == key).and_then(|(_, v)| *v);
-        match v {
-            Some(v) if needs.contains(&key) => {
-                c.positive("part", key, v, 100_000.0)?;
-                Ok(v)
-            }
-            Some(v) => {
-                c.range("part", key, v, -100_000.0, 100_000.0, "a finite length")?;
-                Ok(v)
-            }
-            None if needs.contains(&key) => Err(Error::input(format!(
-                "{}: part.{key} is missing; shape \"{name}\" needs {}",
-                c.file,
-                needs.join(", ")
-            ))),
-            None => Ok(0.0),
-        }
-    };
-    let shape = match name {
-        "cylinder" => Shape::Cylinder {
-            radius_mm: get("radius_mm")?,
-            height_mm: get("height_mm")?,
-        },
-        "cone_frustum" => Shape::ConeFrustum {
-            radius_mm: get("radius_mm")?,
-            top_radius_mm: get("top_radius_mm")?,
-            height_mm: get("height_mm")?,
-        },
-        "vase" => {
-            let s = Shape::Vase {
-                radius_mm: get("radius_mm")?,
-                height_mm: get("height_mm")?,
-                bulge_mm: get("bulge_mm")?,
-                top_slope_mm: get("top_slope_mm")?,
-                top_wave_mm: get("top_wave_mm")?,
-                top_waves: p.top_waves.unwrap_or(0),
-            };
-            if let Shape::Vase {
-                radius_mm,
-                height_mm,
-                bulge_mm,
-                top_slope_mm,
-                top_wave_mm,
-                ..
-            } = s
-            {
-                if bulge_mm.abs() >= radius_mm {
-                    return Err(c.fail(
-                        "part",
-                        "bulge_mm",
-                        bulge_mm,
-                        &format!("smaller than radius_mm ({radius_mm}) in magnitude"),
-                    ));
-                }
-                if top_slope_mm.abs() + top_wave_mm.abs() >= height_mm {
-                    return Err(c.fail(
-                        "part",
-                        "top_slope_mm",
-                        top_slope_mm,
-                        "|top_slope_mm| + |top_wave_mm| below height_mm",
-                    ));
-                }
-            }
-            s
-        }
-        "hemisphere" => Shape::Hemisphere {
-            radius_mm: get("radius_mm")?,
-        },
-        "disk" => Shape::Disk {
-            radius_mm: get("radius_mm")?,
-        },
-        "asymmetric_dome" => Shape::AsymmetricDome {
-            radius_mm: get("radius_mm")?,
-            height_mm: get("height_mm")?,
-            lean_mm: get("lean_mm")?,
-        },
-        _ => {
-            let (big, small) = (get("bend_radius_mm")?, get("tube_radius_mm")?);
-            if small >= big {
-                return Err(c.fail(
-                    "part",
-                    "tube_radius_mm",
-                    small,
-                    &format!("smaller than bend_radius_mm ({big})"),
-                ));
-            }
-            Shape::QuarterTorus {
-                bend_radius_mm: big,
-                tube_radius_mm: small,
-            }
-        }
-    };
-    Ok(shape)
+    Shape::from_params(name, &p.shape_params()).map_err(|e| c.fail_text("part", e.key(), &e))
 }
 
 fn material(m: &RawMaterial, c: &Checker) -> Result<Material> {
@@ -828,15 +680,31 @@ fn material(m: &RawMaterial, c: &Checker) -> Result<Material> {
 /// Checks values and words the error with the file, the line and the key.
 struct Checker<'a> {
     text: &'a str,
+    /// Whether `text` is the user's file, whose lines a message may name.
+    lines: bool,
     file: &'a str,
 }
 
 impl Checker<'_> {
-    fn fail(&self, section: &str, key: &str, value: impl Display, expected: &str) -> Error {
-        let at = match locate(self.text, section, key) {
+    /// An error whose text begins with the key ("key = value; expected …").
+    fn fail_text(&self, section: &str, key: &str, text: impl Display) -> Error {
+        Error::input(format!(
+            "{}{}: {section}.{text}",
+            self.file,
+            self.at(section, key)
+        ))
+    }
+
+    /// " line N" where the user's file sets the key.
+    fn at(&self, section: &str, key: &str) -> String {
+        match locate(self.text, section, key).filter(|_| self.lines) {
             Some(l) => format!(" line {l}"),
             None => String::new(),
-        };
+        }
+    }
+
+    fn fail(&self, section: &str, key: &str, value: impl Display, expected: &str) -> Error {
+        let at = self.at(section, key);
         Error::input(format!(
             "{}{at}: {section}.{key} = {value}; expected {expected}",
             self.file

@@ -57,6 +57,24 @@ pub struct RawPart {
     pub lower_loop: Option<usize>,
 }
 
+impl RawPart {
+    /// The shape parameters by the names `planner::shapes::SIGNATURES` uses.
+    pub fn shape_params(&self) -> [(&'static str, Option<f64>); 10] {
+        [
+            ("radius_mm", self.radius_mm),
+            ("top_radius_mm", self.top_radius_mm),
+            ("height_mm", self.height_mm),
+            ("bulge_mm", self.bulge_mm),
+            ("top_slope_mm", self.top_slope_mm),
+            ("top_wave_mm", self.top_wave_mm),
+            ("top_waves", self.top_waves.map(f64::from)),
+            ("lean_mm", self.lean_mm),
+            ("bend_radius_mm", self.bend_radius_mm),
+            ("tube_radius_mm", self.tube_radius_mm),
+        ]
+    }
+}
+
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RawProcess {
