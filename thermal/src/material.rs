@@ -185,7 +185,7 @@ impl Material {
 
 /// EN 1993-1-2 §3.4.1.2: specific heat of carbon steel, J/(kg K), T in K (formula in °C).
 fn eurocode_cp(t: f64) -> f64 {
-    let c = (t - 273.15).clamp(20.0, 1200.0);
+    let c = crate::celsius(t).clamp(20.0, 1200.0);
     if c < 600.0 {
         425.0 + 7.73e-1 * c - 1.69e-3 * c * c + 2.22e-6 * c * c * c
     } else if c < 735.0 {
@@ -199,7 +199,7 @@ fn eurocode_cp(t: f64) -> f64 {
 
 /// EN 1993-1-2 §3.4.1.3: thermal conductivity of carbon steel, W/(m K).
 fn eurocode_k(t: f64) -> f64 {
-    let c = (t - 273.15).clamp(20.0, 1200.0);
+    let c = crate::celsius(t).clamp(20.0, 1200.0);
     if c < 800.0 { 54.0 - 3.33e-2 * c } else { 27.3 }
 }
 
@@ -212,8 +212,8 @@ mod tests {
         // EN 1993-1-2 at 20 °C: c = 439.8 J/kgK, λ = 53.3 W/mK; peak near 735 °C: 5000 J/kgK.
         assert!((eurocode_cp(293.15) - 439.8).abs() < 0.1);
         assert!((eurocode_k(293.15) - 53.334).abs() < 1e-9);
-        assert!((eurocode_cp(735.0 + 273.15) - 5000.0).abs() < 10.0);
-        assert_eq!(eurocode_k(1000.0 + 273.15), 27.3);
+        assert!((eurocode_cp(crate::kelvin(735.0)) - 5000.0).abs() < 10.0);
+        assert_eq!(eurocode_k(crate::kelvin(1000.0)), 27.3);
     }
 
     #[test]

@@ -163,7 +163,16 @@ fn judged_at(deps: &[Deposit], lead: f64) -> Vec<Vec<usize>> {
     at
 }
 
-/// Point dwells over deposits `a..b` from `start`: each deposit is tried without a dwell, and
+/// A dwell before a deposit: the deposit, the dwell (s) and why.
+type PointDwell = (usize, f64, Risk);
+
+/// The run after point dwells, the dwells, and the points no dwell keeps safe.
+type PointDwells<R> = (R, Vec<PointDwell>, Vec<usize>);
+
+/// The run after a trial, the revolution's first risky point and its hottest preheat.
+type Trial<R> = (R, Option<(usize, Risk)>, f64);
+
+/// Point dwells over the deposits of `range` from `start`: each deposit is tried without a dwell, and
 /// given the shortest one that keeps the points judged at it safe when it is not.
 fn point_dwells<R: HeatRun>(
     s: &Search,
@@ -171,7 +180,7 @@ fn point_dwells<R: HeatRun>(
     start: &R,
     range: std::ops::Range<usize>,
     simulated: &mut f64,
-) -> Result<(R, Vec<(usize, f64, Risk)>, Vec<usize>), ThermalError> {
+) -> Result<PointDwells<R>, ThermalError> {
     let mut x = start.clone();
     let mut dwells = Vec::new();
     let mut unresolved = Vec::new();
@@ -194,7 +203,7 @@ fn point_dwells<R: HeatRun>(
     // misprediction replays from the last copy.
     let target = s.target_k();
     let (mut cp, mut cp_at) = (start.clone(), range.start);
-    let replay = |cp: &R, from: usize, to: usize, dwells: &[(usize, f64, Risk)]| {
+    let replay = |cp: &R, from: usize, to: usize, dwells: &[PointDwell]| {
         let mut y = cp.clone();
         for j in from..to {
             let d = dwells.iter().find(|p| p.0 == j).map_or(0.0, |p| p.1);
@@ -354,7 +363,7 @@ impl Segment<'_> {
         start: &R,
         d: f64,
         simulated: &mut usize,
-    ) -> Result<(R, Option<(usize, Risk)>, f64), ThermalError> {
+    ) -> Result<Trial<R>, ThermalError> {
         let (s, rev) = (self.s, self.rev);
         let mut x = start.clone();
         for i in rev.dwell_at..self.seg_end {
