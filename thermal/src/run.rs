@@ -106,7 +106,9 @@ pub trait HeatRun: Clone {
     fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError>;
     /// Let the part cool with the arc off for `duration` seconds.
     fn cool(&mut self, duration: f64) -> Result<(), ThermalError>;
-    /// Per deposit, the results so far (a preheat is known once it was read).
+    /// Per deposit, the results so far: the preheat once it was read and the pool once the
+    /// deposit is laid, which is what a judge needs while the run goes on. The peak and the time
+    /// above the threshold are final in [`HeatRun::finish`].
     fn points(&self) -> &[PointResult];
     /// What deposit i is laid on.
     fn support(&self, i: usize) -> Support;
