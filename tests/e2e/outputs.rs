@@ -98,6 +98,38 @@ fn outputs_open_in_their_readers() {
         probe["frame"].as_u64().unwrap() as usize * n + probe["point"].as_u64().unwrap() as usize;
     let want = probe["temperature_c"].as_f64().unwrap();
     assert!((t[k] as f64 - want).abs() < 1e-3, "{} vs {want}", t[k]);
+    // Every frame is physical: a laid point lies between ambient (20 °C, less 1 K) and the
+    // highest peak of any point, and the laid count never falls. (The thin wall's lagged heat
+    // capacity once put points of this dome at −273 °C in three of its 40 frames.)
+    let laid = h5
+        .dataset("VTKHDF/PointData/laid")
+        .unwrap()
+        .read_u8()
+        .unwrap();
+    let (ph, rows) = crate::read_csv(&out.join("path.csv"));
+    let peak_col = ph.iter().position(|c| c == "peak_c").unwrap();
+    let peak = rows
+        .iter()
+        .map(|r| r[peak_col].parse::<f64>().unwrap())
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert_eq!(t.len() % n, 0);
+    let mut laid_before = 0;
+    for (step, (temps, laid)) in t.chunks(n).zip(laid.chunks(n)).enumerate() {
+        let count = laid.iter().filter(|&&l| l == 1).count();
+        assert!(
+            count >= laid_before,
+            "step {step}: {count} laid after {laid_before}"
+        );
+        laid_before = count;
+        for (i, (&c, &l)) in temps.iter().zip(laid).enumerate() {
+            if l == 1 {
+                assert!(
+                    (19.0..=peak + 0.01).contains(&(c as f64)),
+                    "step {step}, point {i}: {c} °C outside [19, {peak}]"
+                );
+            }
+        }
+    }
 
     // run.mcap through the mcap crate's reader: every message in log-time order.
     let bytes = std::fs::read(out.join("run.mcap")).unwrap();

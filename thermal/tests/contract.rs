@@ -170,3 +170,35 @@ fn a_deposit_off_the_plate_is_bad_input() {
         );
     }
 }
+
+/// Metal leaving the mushy range in a cooling step stays above ambient: the thin wall's step
+/// solved with the capacity at its start once booked the latent slope over a 180 K drop, and
+/// small nodes read down to 0 K in the field (the demo's fields.h5). Both models, the field kept
+/// every half second while the last revolution cools.
+#[test]
+fn cooling_metal_never_reads_below_ambient() {
+    let deps = schedule();
+    let end = deps.last().unwrap().time;
+    for mut model in models(Material::g3si()) {
+        let times: Vec<f64> = (1..=240).map(|k| end - 20.0 + 0.5 * k as f64).collect();
+        model.set_snapshot_times(times);
+        let mut run = model.start(&deps).unwrap();
+        thermal::run::replay(&mut run, &deps).unwrap();
+        run.cool(100.0).unwrap();
+        let r = run.finish();
+        assert!(r.snapshots.len() >= 200);
+        for s in &r.snapshots {
+            let laid = deps.partition_point(|d| d.time <= s.time + 1e-9);
+            let coldest = s.temperature[..laid]
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                coldest > 293.15 - 1.0,
+                "{} at {:.1} s: {coldest:.1} K",
+                model.name(),
+                s.time
+            );
+        }
+    }
+}
