@@ -112,6 +112,9 @@ const SECANT_TOLERANCE: f64 = 0.25;
 const MAX_SECANT_PASSES: usize = 4;
 const MAX_SECANT_ROUNDS: usize = 3;
 
+/// Temperature correction at which the solve after a secant correction stops, K.
+const SECANT_CG_TOLERANCE_K: f64 = 1e-2;
+
 /// Temperature correction at which conjugate gradients stop, K. The energy update is exact
 /// whatever the solve's accuracy; this bounds the temperatures' error per step.
 const CG_TOLERANCE_K: f64 = 1e-4;
@@ -261,7 +264,7 @@ impl Network {
         for i in nodes(&ws.runs) {
             ws.x[i] = t[i] + trend * (t[i] - ws.last_t[i]);
         }
-        self.iterations += cg(&self.start, &self.column, &mut ws);
+        self.iterations += cg(&self.start, &self.column, &mut ws, CG_TOLERANCE_K);
         // The capacity above is h(T)'s slope at the step's start. Where h(T) bends over the
         // step (leaving the mushy range, the magnetic peak) that slope can be many times the
         // secant, and a capacity above the secant books more heat than the temperature change
@@ -303,8 +306,9 @@ impl Network {
                 break;
             }
             // The corrected rows moved their neighbours' balance: solve the step again with
-            // the secant capacities (from the corrected temperatures, a few iterations).
-            self.iterations += cg(&self.start, &self.column, &mut ws);
+            // the secant capacities, from the corrected temperatures, to a looser tolerance
+            // (the energy update is exact whatever the solve's accuracy).
+            self.iterations += cg(&self.start, &self.column, &mut ws, SECANT_CG_TOLERANCE_K);
         }
         // Conservative update from the solved temperatures.
         let mut sums = [0.0; 4];
@@ -408,7 +412,7 @@ fn apply(start: &[u32], column: &[u32], ws: &mut Scratch) {
 /// Jacobi-preconditioned conjugate gradients on the active nodes, from the workspace's x.
 /// Stops when the Jacobi correction r_i/d_i, a temperature, is below `CG_TOLERANCE_K`
 /// everywhere: scale-free whatever the node masses.
-fn cg(start: &[u32], column: &[u32], ws: &mut Scratch) -> usize {
+fn cg(start: &[u32], column: &[u32], ws: &mut Scratch, tolerance: f64) -> usize {
     std::mem::swap(&mut ws.p, &mut ws.x);
     apply(start, column, ws);
     std::mem::swap(&mut ws.p, &mut ws.x);
@@ -430,7 +434,7 @@ fn cg(start: &[u32], column: &[u32], ws: &mut Scratch) -> usize {
     let mut rz = dot(&ws.runs, &ws.r, &ws.z);
     let mut worst = largest(&ws.runs, &ws.z);
     let mut it = 0;
-    while it < 1000 && worst > CG_TOLERANCE_K {
+    while it < 1000 && worst > tolerance {
         apply(start, column, ws);
         let alpha = rz / dot(&ws.runs, &ws.p, &ws.q);
         for &(a, b) in &ws.runs {
