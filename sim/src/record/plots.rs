@@ -101,8 +101,18 @@ fn preheat(area: &Area, scene: &Scene) -> Drawn {
         .configure_mesh()
         .x_desc("revolution (layer)")
         .y_desc("preheat, °C")
+        .x_label_formatter(&whole)
+        .y_label_formatter(&whole)
         .label_style((FONT, 15))
         .draw()?;
+    // The limit first, so that the curves are drawn over it.
+    chart
+        .draw_series(LineSeries::new(
+            [(0.0, scene.interpass_c), (n, scene.interpass_c)],
+            BLACK.stroke_width(2),
+        ))?
+        .label(format!("interpass limit {:.0} °C", scene.interpass_c))
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
     let series = |rows: &[super::scene::LayerRecord], f: fn(&super::scene::LayerRecord) -> f64| {
         rows.iter()
             .map(move |l| (l.layer as f64, f(l)))
@@ -136,14 +146,58 @@ fn preheat(area: &Area, scene: &Scene) -> Drawn {
         ))?
         .label("mean")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RGBColor(90, 150, 250)));
-    chart
-        .draw_series(LineSeries::new(
-            [(0.0, scene.interpass_c), (n, scene.interpass_c)],
-            BLACK.stroke_width(2),
-        ))?
-        .label(format!("interpass limit {:.0} °C", scene.interpass_c))
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+    // Revolutions whose hottest preheat still passes the limit, as layers.csv flags them.
+    let above: Vec<&super::scene::LayerRecord> = scene
+        .layers
+        .iter()
+        .filter(|l| l.preheat_max_c > scene.interpass_c)
+        .collect();
+    if !above.is_empty() {
+        let red = RGBColor(220, 0, 0);
+        chart
+            .draw_series(
+                above.iter().map(|l| {
+                    Circle::new((l.layer as f64, l.preheat_max_c), 6, red.stroke_width(2))
+                }),
+            )?
+            .label(format!(
+                "above the limit{}: revolutions {}",
+                if without.is_empty() {
+                    ""
+                } else {
+                    " with dwells"
+                },
+                ranges(above.iter().map(|l| l.layer))
+            ))
+            .legend(move |(x, y)| Circle::new((x + 10, y), 5, red.stroke_width(2)));
+    }
     legend(&mut chart, SeriesLabelPosition::UpperLeft)
+}
+
+/// An axis label without decimals: revolutions, °C and seconds are read as whole numbers.
+fn whole(v: &f64) -> String {
+    format!("{v:.0}")
+}
+
+/// "3–5, 9" from ascending numbers.
+fn ranges(v: impl Iterator<Item = usize>) -> String {
+    let mut out: Vec<(usize, usize)> = Vec::new();
+    for x in v {
+        match out.last_mut() {
+            Some(r) if r.1 + 1 == x => r.1 = x,
+            _ => out.push((x, x)),
+        }
+    }
+    out.iter()
+        .map(|&(a, b)| {
+            if a == b {
+                a.to_string()
+            } else {
+                format!("{a}–{b}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
@@ -203,7 +257,7 @@ fn deposits(area: &Area, scene: &Scene) -> Drawn {
         * 1.1;
     let mut chart = ChartBuilder::on(area)
         .caption(
-            "deposit height: CTPP against planar 2.5D slicing",
+            "deposit height: CTPP (one continuous spiral) against planar 2.5D slicing",
             (FONT, 24),
         )
         .margin(12)
@@ -225,7 +279,7 @@ fn deposits(area: &Area, scene: &Scene) -> Drawn {
     chart
         .draw_series(bars(h_ctpp, 0.0, RGBColor(50, 100, 220)))?
         .label(format!(
-            "CTPP ({} points, {} beyond the axis)",
+            "CTPP, continuous three-dimensional path planning ({} points, {} beyond the axis)",
             ctpp.len(),
             beyond(&ctpp)
         ))
@@ -260,7 +314,8 @@ fn deposits(area: &Area, scene: &Scene) -> Drawn {
             .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
         }
     }
-    legend(&mut chart, SeriesLabelPosition::UpperLeft)
+    // Upper right: CTPP's tallest bar stands at the window's lower edge, on the left.
+    legend(&mut chart, SeriesLabelPosition::UpperRight)
 }
 
 /// Points a quarter, half and three quarters up the path.
@@ -294,6 +349,8 @@ fn history(area: &Area, scene: &Scene) -> Drawn {
         .configure_mesh()
         .x_desc("build time, s")
         .y_desc("temperature, °C")
+        .x_label_formatter(&whole)
+        .y_label_formatter(&whole)
         .label_style((FONT, 15))
         .draw()?;
     let colours = [
@@ -345,6 +402,8 @@ fn dwells(area: &Area, scene: &Scene) -> Drawn {
         .configure_mesh()
         .x_desc("revolution (layer)")
         .y_desc("dwell in the revolution, s")
+        .x_label_formatter(&whole)
+        .y_label_formatter(&whole)
         .label_style((FONT, 15))
         .draw()?;
     chart.draw_series(scene.layers.iter().map(|l| {
@@ -427,6 +486,15 @@ pub fn study_plots(dir: &mut RunDir, cases: &[Case]) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn ranges_join_consecutive_numbers() {
+        assert_eq!(
+            super::ranges([3, 4, 5, 9, 11, 12].into_iter()),
+            "3–5, 9, 11–12"
+        );
+        assert_eq!(super::ranges(std::iter::empty()), "");
+    }
+
     #[test]
     fn histogram_shares_sum_to_one_inside_the_range() {
         let h = super::histogram(&[1.81, 1.84, 2.0, 2.19], 1.8, 0.05, 8);
