@@ -39,6 +39,8 @@ fn demo_writes_a_manifest_listing_its_files() {
         assert!(!m[key].is_null(), "manifest lacks {key}");
     }
     assert_eq!(m["scenario"]["part"]["shape"], "hemisphere");
+    // What a person opens shows physical temperatures (fields.h5, run.mcap).
+    crate::outputs::assert_physical(&dir);
     for f in [
         "plan.json",
         "path.csv",

@@ -23,6 +23,28 @@ fn run_dome(name: &str, extra: &str) -> PathBuf {
     out
 }
 
+/// RFC 4648 base64, as MCAP's JSON encoding writes `bytes` fields.
+fn base64_decode(text: &str) -> Vec<u8> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => c - b'A',
+        b'a'..=b'z' => c - b'a' + 26,
+        b'0'..=b'9' => c - b'0' + 52,
+        b'+' => 62,
+        b'/' => 63,
+        _ => panic!("not base64: {c}"),
+    };
+    let digits: Vec<u8> = text.bytes().filter(|&c| c != b'=').map(value).collect();
+    let mut out = Vec::with_capacity(digits.len() * 3 / 4);
+    for chunk in digits.chunks(4) {
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |acc, (k, &d)| acc | (u32::from(d) << (18 - 6 * k)));
+        out.extend(n.to_be_bytes()[1..chunk.len()].iter());
+    }
+    out
+}
+
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
@@ -53,6 +75,84 @@ fn readers() -> PathBuf {
         std::fs::write(&marker, wanted).unwrap();
     }
     venv
+}
+
+/// Every value a run wrote for the wall is physical: in every frame of fields.h5 and every
+/// `/wall/temperature` cloud of run.mcap, a laid point lies between ambient (20 °C, less 1 K)
+/// and the highest peak of any point, and the laid count never falls. (The thin wall's lagged
+/// heat capacity once put points of the R 40 dome at −273 °C in three of its 40 frames.)
+pub fn assert_physical(out: &Path) {
+    let (ph, rows) = crate::read_csv(&out.join("path.csv"));
+    let peak_col = ph.iter().position(|c| c == "peak_c").unwrap();
+    let peak = rows
+        .iter()
+        .map(|r| r[peak_col].parse::<f64>().unwrap())
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(peak.is_finite() && peak > 1000.0, "peak {peak} °C");
+    let inside = |c: f64| (19.0..=peak + 0.01).contains(&c);
+
+    let h5 = hdf5_pure::File::from_bytes(std::fs::read(out.join("fields.h5")).unwrap()).unwrap();
+    let read = |name: &str| h5.dataset(&format!("VTKHDF/{name}")).unwrap();
+    let n = read("NumberOfPoints").read_i64().unwrap()[0] as usize;
+    let t = read("PointData/temperature_c").read_f32().unwrap();
+    let laid = read("PointData/laid").read_u8().unwrap();
+    assert_eq!(t.len() % n, 0);
+    let mut laid_before = 0;
+    for (step, (temps, laid)) in t.chunks(n).zip(laid.chunks(n)).enumerate() {
+        let count = laid.iter().filter(|&&l| l == 1).count();
+        assert!(
+            count >= laid_before,
+            "fields.h5 step {step}: {count} laid after {laid_before}"
+        );
+        laid_before = count;
+        for (i, (&c, &l)) in temps.iter().zip(laid).enumerate() {
+            assert!(
+                l == 0 || inside(c as f64),
+                "fields.h5 step {step}, point {i}: {c} °C outside [19, {peak}]"
+            );
+        }
+    }
+
+    let bytes = std::fs::read(out.join("run.mcap")).unwrap();
+    let mut cloud_before = 0;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic != "/wall/temperature" {
+            continue;
+        }
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        assert_eq!(v["point_stride"], 16);
+        let data = base64_decode(v["data"].as_str().unwrap());
+        let points = data.len() / 16;
+        assert!(
+            points >= cloud_before,
+            "run.mcap: {points} points after {cloud_before}"
+        );
+        cloud_before = points;
+        for (i, p) in data.chunks_exact(16).enumerate() {
+            let c = f32::from_le_bytes(p[12..16].try_into().unwrap()) as f64;
+            assert!(
+                inside(c),
+                "run.mcap at {} ns, point {i}: {c} °C outside [19, {peak}]",
+                m.log_time
+            );
+        }
+    }
+    assert!(cloud_before > 0, "no /wall/temperature cloud in run.mcap");
+}
+
+/// The same bounds on a voxel run: its field is one temperature per deposit, the mean of its
+/// metal.
+#[test]
+fn voxel_outputs_are_physical() {
+    let out = crate::run_scenario(
+        "outputs_voxel",
+        "simulate",
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 25.0\nedge_mm = 2.5\n[planner]\nn_points = 48\n\
+         [thermal]\nmodel = \"voxel\"\nplate_mm = [90.0, 90.0, 8.0]\n[output]\nrerun = false\nplots = false\nframes = 30\n",
+    );
+    assert_eq!(json(&out.join("thermal.json"))["model"], "voxel");
+    assert_physical(&out);
 }
 
 #[test]
@@ -98,38 +198,7 @@ fn outputs_open_in_their_readers() {
         probe["frame"].as_u64().unwrap() as usize * n + probe["point"].as_u64().unwrap() as usize;
     let want = probe["temperature_c"].as_f64().unwrap();
     assert!((t[k] as f64 - want).abs() < 1e-3, "{} vs {want}", t[k]);
-    // Every frame is physical: a laid point lies between ambient (20 °C, less 1 K) and the
-    // highest peak of any point, and the laid count never falls. (The thin wall's lagged heat
-    // capacity once put points of this dome at −273 °C in three of its 40 frames.)
-    let laid = h5
-        .dataset("VTKHDF/PointData/laid")
-        .unwrap()
-        .read_u8()
-        .unwrap();
-    let (ph, rows) = crate::read_csv(&out.join("path.csv"));
-    let peak_col = ph.iter().position(|c| c == "peak_c").unwrap();
-    let peak = rows
-        .iter()
-        .map(|r| r[peak_col].parse::<f64>().unwrap())
-        .fold(f64::NEG_INFINITY, f64::max);
-    assert_eq!(t.len() % n, 0);
-    let mut laid_before = 0;
-    for (step, (temps, laid)) in t.chunks(n).zip(laid.chunks(n)).enumerate() {
-        let count = laid.iter().filter(|&&l| l == 1).count();
-        assert!(
-            count >= laid_before,
-            "step {step}: {count} laid after {laid_before}"
-        );
-        laid_before = count;
-        for (i, (&c, &l)) in temps.iter().zip(laid).enumerate() {
-            if l == 1 {
-                assert!(
-                    (19.0..=peak + 0.01).contains(&(c as f64)),
-                    "step {step}, point {i}: {c} °C outside [19, {peak}]"
-                );
-            }
-        }
-    }
+    assert_physical(&out);
 
     // run.mcap through the mcap crate's reader: every message in log-time order.
     let bytes = std::fs::read(out.join("run.mcap")).unwrap();
