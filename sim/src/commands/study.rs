@@ -54,6 +54,8 @@ pub fn load(path: &Path) -> Result<Study> {
     let base_path = dir.join(base);
     let base_text = std::fs::read_to_string(&base_path)
         .map_err(|e| Error::input(format!("{file}: base = \"{base}\": {e}")))?;
+    // The base first, on its own: its errors name its own file and lines.
+    Scenario::parse(&base_text, &base_path.display().to_string(), &dir)?;
     let command = table
         .get("command")
         .and_then(|v| v.as_str())
