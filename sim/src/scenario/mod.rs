@@ -162,42 +162,38 @@ fn process(p: &RawProcess, c: &Checker) -> Result<Process> {
     c.positive("process", "deposit_mm", p.deposit_mm, 20.0)?;
     c.positive("process", "deposit_min_mm", p.deposit_min_mm, 20.0)?;
     c.positive("process", "deposit_max_mm", p.deposit_max_mm, 20.0)?;
-    if p.deposit_min_mm > p.deposit_mm {
-        return Err(c.fail(
-            "process",
-            "deposit_min_mm",
-            p.deposit_min_mm,
-            &format!("at most deposit_mm ({})", p.deposit_mm),
-        ));
-    }
-    if p.deposit_max_mm < p.deposit_mm {
-        return Err(c.fail(
-            "process",
-            "deposit_max_mm",
-            p.deposit_max_mm,
-            &format!("at least deposit_mm ({})", p.deposit_mm),
-        ));
-    }
+    c.at_most(
+        "process",
+        "deposit_min_mm",
+        p.deposit_min_mm,
+        "deposit_mm",
+        p.deposit_mm,
+    )?;
+    c.at_least(
+        "process",
+        "deposit_max_mm",
+        p.deposit_max_mm,
+        "deposit_mm",
+        p.deposit_mm,
+    )?;
     c.positive("process", "wfs_min_m_min", p.wfs_min_m_min, 50.0)?;
     c.positive("process", "wfs_max_m_min", p.wfs_max_m_min, 50.0)?;
-    if p.wfs_max_m_min < p.wfs_min_m_min {
-        return Err(c.fail(
-            "process",
-            "wfs_max_m_min",
-            p.wfs_max_m_min,
-            &format!("at least wfs_min_m_min ({})", p.wfs_min_m_min),
-        ));
-    }
+    c.at_least(
+        "process",
+        "wfs_max_m_min",
+        p.wfs_max_m_min,
+        "wfs_min_m_min",
+        p.wfs_min_m_min,
+    )?;
     c.positive("process", "travel_min_mm_s", p.travel_min_mm_s, 1000.0)?;
     c.positive("process", "travel_max_mm_s", p.travel_max_mm_s, 1000.0)?;
-    if p.travel_max_mm_s < p.travel_min_mm_s {
-        return Err(c.fail(
-            "process",
-            "travel_max_mm_s",
-            p.travel_max_mm_s,
-            &format!("at least travel_min_mm_s ({})", p.travel_min_mm_s),
-        ));
-    }
+    c.at_least(
+        "process",
+        "travel_max_mm_s",
+        p.travel_max_mm_s,
+        "travel_min_mm_s",
+        p.travel_min_mm_s,
+    )?;
     c.positive("process", "arc_power_w", p.arc_power_w, 50_000.0)?;
     c.range("process", "efficiency", p.efficiency, 0.0, 1.0, "in (0, 1]")?;
     if p.efficiency == 0.0 {
@@ -709,6 +705,22 @@ impl Checker<'_> {
             "{}{at}: {section}.{key} = {value}; expected {expected}",
             self.file
         ))
+    }
+
+    /// `key` = v must be at least `other` = bound of the same section.
+    fn at_least(&self, section: &str, key: &str, v: f64, other: &str, bound: f64) -> Result<()> {
+        match v >= bound {
+            true => Ok(()),
+            false => Err(self.fail(section, key, v, &format!("at least {other} ({bound})"))),
+        }
+    }
+
+    /// `key` = v must be at most `other` = bound of the same section.
+    fn at_most(&self, section: &str, key: &str, v: f64, other: &str, bound: f64) -> Result<()> {
+        match v <= bound {
+            true => Ok(()),
+            false => Err(self.fail(section, key, v, &format!("at most {other} ({bound})"))),
+        }
     }
 
     fn positive(&self, section: &str, key: &str, v: f64, max: f64) -> Result<()> {
