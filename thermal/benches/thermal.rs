@@ -44,6 +44,7 @@ fn main() {
         lead: 10e-3,
         hot_threshold: 873.15,
         snapshot_times: vec![],
+        traces: vec![],
         courant: 0.9,
     };
     for threads in [1, 2] {
@@ -91,6 +92,7 @@ fn main() {
         hot_threshold: 873.15,
         max_step: 30.0,
         snapshot_times: vec![],
+        traces: vec![],
     };
     let t = Instant::now();
     let r = WallModel::build(&deps, &ws)

@@ -23,7 +23,7 @@ pub mod wall;
 pub use error::ThermalError;
 pub use run::{
     Cells, CoolingSteps, HeatModel, HeatRun, ModelRun, Plate, PointResult, RunResult, Snapshot,
-    Support,
+    Support, Trace,
 };
 
 /// 0 °C in kelvin: the one place the interface's °C and the models' K meet.

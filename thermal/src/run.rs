@@ -63,6 +63,27 @@ pub struct Snapshot {
     pub temperature: Vec<f64>,
 }
 
+/// One deposit's metal temperature at every step of the run from when it was laid (the
+/// settings' `traces`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trace {
+    pub deposit: usize,
+    /// s.
+    pub time: Vec<f64>,
+    /// K.
+    pub temperature: Vec<f64>,
+}
+
+impl Trace {
+    pub fn new(deposit: usize) -> Trace {
+        Trace {
+            deposit,
+            time: Vec::new(),
+            temperature: Vec::new(),
+        }
+    }
+}
+
 /// How a model discretised the part, and what it cost.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Cells {
@@ -87,6 +108,8 @@ pub struct RunResult {
     pub support: Vec<Support>,
     /// The field at the settings' snapshot times.
     pub snapshots: Vec<Snapshot>,
+    /// The settings' traced deposits, step by step.
+    pub traces: Vec<Trace>,
     pub ledger: Ledger,
     /// Energy held by the part at the end above ambient, J.
     pub stored: f64,
@@ -189,6 +212,14 @@ impl HeatModel {
         match self {
             HeatModel::ThinWall(s) => s.snapshot_times = times,
             HeatModel::Voxel(s) => s.snapshot_times = times,
+        }
+    }
+
+    /// The deposits whose temperature is kept at every step.
+    pub fn set_traces(&mut self, deposits: Vec<usize>) {
+        match self {
+            HeatModel::ThinWall(s) => s.traces = deposits,
+            HeatModel::Voxel(s) => s.traces = deposits,
         }
     }
 }

@@ -11,7 +11,7 @@ use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Network, Surroundings};
 use crate::run::{
-    Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, replay,
+    Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, Trace, replay,
 };
 use crate::schedule::{Deposit, validate};
 use std::collections::HashMap;
@@ -36,6 +36,9 @@ pub struct WallSettings {
     pub max_step: f64,
     /// Times at which to keep the whole field, s.
     pub snapshot_times: Vec<f64>,
+    /// Deposits whose metal's temperature is kept at every step from when it is laid: a
+    /// history finer than the snapshots, which shows every pass of the torch.
+    pub traces: Vec<usize>,
 }
 
 struct Layout {
@@ -310,6 +313,7 @@ pub struct WallRun {
     peak: Vec<f64>,
     snapshots: Vec<Snapshot>,
     next_snapshot: usize,
+    traces: Vec<Trace>,
     power: Vec<f64>,
     below: Arc<Vec<usize>>,
     /// Time now, s; deposits laid so far.
@@ -352,6 +356,7 @@ impl WallRun {
             peak: vec![s.surroundings.ambient_k; n],
             snapshots: Vec::new(),
             next_snapshot: 0,
+            traces: s.traces.iter().map(|&d| Trace::new(d)).collect(),
             cooling_step: 1.0,
             power: vec![0.0; n],
             below: Arc::new(below),
@@ -411,6 +416,12 @@ impl WallRun {
                 self.peak[k] = self.peak[k].max(net.t[k]);
             }
         }
+        for tr in &mut self.traces {
+            if tr.deposit < self.laid {
+                tr.time.push(self.now);
+                tr.temperature.push(net.t[self.model.node_of[tr.deposit]]);
+            }
+        }
         let times = &self.settings.snapshot_times;
         while self.next_snapshot < times.len() && times[self.next_snapshot] <= self.now + 1e-9 {
             self.snapshots.push(Snapshot {
@@ -425,6 +436,8 @@ impl WallRun {
 impl HeatRun for WallRun {
     fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError> {
         self.cool(dwell)?;
+        // Laid from here on: the arc's step below observes it.
+        self.laid = i + 1;
         let deps = Arc::clone(&self.deps);
         let deps = &deps[..];
         let (t_deposit, footprint) = (self.settings.deposit_temperature, self.settings.footprint);
@@ -481,7 +494,6 @@ impl HeatRun for WallRun {
         }
         self.points[i].pool_length = len;
         self.points[i].pool_radius = (3.0 * vol / (2.0 * std::f64::consts::PI)).cbrt();
-        self.laid = i + 1;
         self.cooling_step = 1.0;
         self.check(Some(node))
     }
@@ -560,6 +572,7 @@ impl HeatRun for WallRun {
             points: self.points,
             support,
             snapshots: self.snapshots,
+            traces: self.traces,
             ledger: net.ledger,
             stored: net.stored(),
             balance_error: net.balance_error(),

@@ -39,6 +39,7 @@ fn models(material: Material) -> [HeatModel; 2] {
             hot_threshold: 873.15,
             max_step: 30.0,
             snapshot_times: vec![5.0, 25.0],
+            traces: vec![],
         }),
         HeatModel::Voxel(VoxelSettings {
             material,
@@ -49,6 +50,7 @@ fn models(material: Material) -> [HeatModel; 2] {
             lead: 10e-3,
             hot_threshold: 873.15,
             snapshot_times: vec![5.0, 25.0],
+            traces: vec![],
             courant: 0.9,
         }),
     ]
@@ -198,6 +200,40 @@ fn cooling_metal_never_reads_below_ambient() {
                 "{} at {:.1} s: {coldest:.1} K",
                 model.name(),
                 s.time
+            );
+        }
+    }
+}
+
+/// A traced deposit's history holds every step from its arc on, and its highest value is the
+/// peak the run reports for it.
+#[test]
+fn a_trace_follows_every_step_and_holds_the_peak() {
+    let deps = schedule();
+    for mut model in models(Material::g3si()) {
+        model.set_traces(vec![10, 50]);
+        let r = model.simulate(&deps).unwrap();
+        assert_eq!(r.traces.len(), 2);
+        for t in &r.traces {
+            let d = &deps[t.deposit];
+            assert!(
+                t.time.len() > 20,
+                "{}: {} samples",
+                model.name(),
+                t.time.len()
+            );
+            assert!(t.time[0] >= d.arc_start() - 1e-9 && t.time[0] <= d.time + 1e-9);
+            assert!(t.time.windows(2).all(|w| w[1] > w[0]));
+            let top = t
+                .temperature
+                .iter()
+                .copied()
+                .fold(f64::NEG_INFINITY, f64::max);
+            let peak = r.points[t.deposit].peak;
+            assert!(
+                (top - peak).abs() < 1e-6,
+                "{}: trace {top} K, peak {peak} K",
+                model.name()
             );
         }
     }

@@ -49,6 +49,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         hot_threshold: 873.15,
         max_step: 30.0,
         snapshot_times: vec![],
+        traces: vec![],
     };
     let wall = WallModel::build(&deps, &ws)
         .unwrap()
@@ -63,6 +64,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         lead: 10e-3,
         hot_threshold: 873.15,
         snapshot_times: vec![],
+        traces: vec![],
         courant: 0.9,
     };
     let t = std::time::Instant::now();

@@ -196,6 +196,7 @@ fn voxel_column(dx: f64, t_end: f64) -> f64 {
         lead: 0.0,
         hot_threshold: 873.15,
         snapshot_times: vec![],
+        traces: vec![],
         courant: 0.9,
     };
     let mut m = VoxelModel::new(&[], &settings).unwrap();

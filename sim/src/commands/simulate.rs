@@ -27,10 +27,15 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     Ok(summary(&b, &sim))
 }
 
-/// The build heated with `dwell_s`, behind a spinner on a terminal.
+/// The build heated with `dwell_s`, behind a spinner on a terminal; with `frames` > 0 also the
+/// step-by-step temperature of the points the temperature-history plot shows.
 pub fn heat(b: &Build, dwell_s: &[f64], frames: usize) -> Result<Simulation> {
     let _stage = Stage::start("simulating the heat of the build");
-    Ok(b.simulate(dwell_s, frames)?)
+    let traces = match frames {
+        0 => Vec::new(),
+        _ => crate::record::history_points(b.plan.points.len()).to_vec(),
+    };
+    Ok(b.simulate_traced(dwell_s, frames, traces)?)
 }
 
 /// The inspection outputs the scenario switches on (`[output]`): run.rrd, run.mcap, fields.h5

@@ -71,12 +71,14 @@ pub fn material(m: &Material, t: &ThermalSettings) -> thermal::material::Materia
     }
 }
 
-/// The chosen heat model on `deposits`, keeping the field at `snapshot_times`.
+/// The chosen heat model on `deposits`, keeping the field at `snapshot_times` and the
+/// temperature of the deposits in `traces` at every step.
 pub fn heat_model(
     m: &Material,
     t: &ThermalSettings,
     deposits: &[Deposit],
     snapshot_times: Vec<f64>,
+    traces: Vec<usize>,
 ) -> HeatModel {
     let surroundings = Surroundings {
         ambient_k: t.ambient_k,
@@ -102,6 +104,7 @@ pub fn heat_model(
             hot_threshold: t.hot_threshold_k,
             max_step: MAX_COOLING_STEP_S,
             snapshot_times,
+            traces,
         }),
         ThermalModel::Voxel => HeatModel::Voxel(VoxelSettings {
             material: material(m, t),
@@ -112,6 +115,7 @@ pub fn heat_model(
             lead: t.lead_m,
             hot_threshold: t.hot_threshold_k,
             snapshot_times,
+            traces,
             courant: VOXEL_COURANT,
         }),
     }

@@ -629,6 +629,7 @@ mod tests {
             hot_threshold: 873.15,
             max_step: 30.0,
             snapshot_times: vec![],
+            traces: vec![],
         };
         let mut run = WallRun::new(
             WallModel::build(&deps, &settings).unwrap(),

@@ -129,19 +129,37 @@ impl Build {
     /// The scenario's heat model on `deposits`, keeping the field at `snapshot_times`.
     pub fn heat_model(&self, deposits: &[Deposit], snapshot_times: Vec<f64>) -> HeatModel {
         let p = &self.params;
-        deposition::heat_model(&p.material, &p.thermal, deposits, snapshot_times)
+        deposition::heat_model(
+            &p.material,
+            &p.thermal,
+            deposits,
+            snapshot_times,
+            Vec::new(),
+        )
     }
 
     /// Heat the build with `dwell_s[i]` before point i, keeping the field at up to `frames`
     /// times (0: none; fewer on long paths, [`frame_times`]).
     pub fn simulate(&self, dwell_s: &[f64], frames: usize) -> Result<Simulation, ThermalError> {
+        self.simulate_traced(dwell_s, frames, Vec::new())
+    }
+
+    /// [`Build::simulate`], keeping also the temperature of the points in `traces` at every
+    /// step (`RunResult::traces`).
+    pub fn simulate_traced(
+        &self,
+        dwell_s: &[f64],
+        frames: usize,
+        traces: Vec<usize>,
+    ) -> Result<Simulation, ThermalError> {
         let deposits = deposition::schedule(&self.params.process, &self.plan, &self.beads, dwell_s);
         let build_s = deposits.last().map_or(0.0, |d| d.time);
         let times = match frames {
             0 => Vec::new(),
             n => frame_times(build_s, deposits.len(), n),
         };
-        let model = self.heat_model(&deposits, times);
+        let mut model = self.heat_model(&deposits, times);
+        model.set_traces(traces);
         let clock = Instant::now();
         let result = model.simulate(&deposits)?;
         Ok(Simulation {

@@ -24,11 +24,17 @@ mod vtkhdf;
 pub use colour::{Colour, temperature_colour};
 #[cfg(feature = "recording")]
 pub use plots::{Case, study_plots};
-pub use scene::{Event, Frame, Level, PointRecord, Probe, Run, Scene, probe};
+pub use scene::{Event, Frame, History, Level, PointRecord, Probe, Run, Scene, probe};
 
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::scenario::RawOutput;
+
+/// The path points whose temperature history is plotted (and traced step by step): a quarter,
+/// half and three quarters up the path.
+pub fn history_points(n: usize) -> [usize; 3] {
+    [n / 4, n / 2, 3 * n / 4]
+}
 
 /// Most torch poses logged over a run.
 pub const TORCH_SAMPLES: usize = 20_000;

@@ -318,27 +318,42 @@ fn deposits(area: &Area, scene: &Scene) -> Drawn {
     legend(&mut chart, SeriesLabelPosition::UpperRight)
 }
 
-/// Points a quarter, half and three quarters up the path.
-fn history_points(n: usize) -> [usize; 3] {
-    [n / 4, n / 2, 3 * n / 4]
-}
-
 fn history(area: &Area, scene: &Scene) -> Drawn {
-    let n = scene.points.len();
-    let picks = history_points(n);
+    let picks = super::history_points(scene.points.len());
+    // Every step of the heat model where the run traced the point (each pass's peak shows),
+    // else the field frames.
+    let curves: Vec<Vec<(f64, f64)>> = picks
+        .iter()
+        .map(|&i| match scene.histories.iter().find(|h| h.point == i) {
+            Some(h) => h
+                .t_s
+                .iter()
+                .copied()
+                .zip(h.temperature_c.iter().copied())
+                .collect(),
+            None => scene
+                .frames
+                .iter()
+                .filter(|f| f.temperature_c[i].is_finite())
+                .map(|f| (f.t_s, f.temperature_c[i] as f64))
+                .collect(),
+        })
+        .collect();
     let (lo, hi) = span(
-        scene
-            .frames
+        curves
             .iter()
-            .flat_map(|f| picks.iter().map(|&i| f.temperature_c[i] as f64))
+            .flatten()
+            .map(|p| p.1)
             .chain([scene.interpass_c, scene.ambient_c]),
     );
+    let sampled = if scene.histories.is_empty() {
+        format!("{} field frames", scene.frames.len())
+    } else {
+        "every step of the heat model".to_string()
+    };
     let mut chart = ChartBuilder::on(area)
         .caption(
-            format!(
-                "temperature of the wall at three path points ({} field frames)",
-                scene.frames.len()
-            ),
+            format!("temperature of the wall at three path points ({sampled})"),
             (FONT, 24),
         )
         .margin(12)
@@ -353,27 +368,6 @@ fn history(area: &Area, scene: &Scene) -> Drawn {
         .y_label_formatter(&whole)
         .label_style((FONT, 15))
         .draw()?;
-    let colours = [
-        RGBColor(50, 100, 220),
-        RGBColor(40, 160, 80),
-        RGBColor(210, 60, 60),
-    ];
-    for (&i, c) in picks.iter().zip(colours) {
-        let pts: Vec<(f64, f64)> = scene
-            .frames
-            .iter()
-            .filter(|f| f.temperature_c[i].is_finite())
-            .map(|f| (f.t_s, f.temperature_c[i] as f64))
-            .collect();
-        let p = &scene.points[i];
-        chart
-            .draw_series(LineSeries::new(pts, c.stroke_width(2)))?
-            .label(format!(
-                "point {i} (layer {}, z = {:.0} mm)",
-                p.layer, p.position_mm[2]
-            ))
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c));
-    }
     chart
         .draw_series(LineSeries::new(
             [(0.0, scene.interpass_c), (scene.build_s, scene.interpass_c)],
@@ -381,7 +375,22 @@ fn history(area: &Area, scene: &Scene) -> Drawn {
         ))?
         .label("interpass limit")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
-    legend(&mut chart, SeriesLabelPosition::UpperLeft)
+    let colours = [
+        RGBColor(50, 100, 220),
+        RGBColor(40, 160, 80),
+        RGBColor(210, 60, 60),
+    ];
+    for ((&i, pts), c) in picks.iter().zip(curves).zip(colours) {
+        let p = &scene.points[i];
+        chart
+            .draw_series(LineSeries::new(pts, c.stroke_width(1)))?
+            .label(format!(
+                "point {i} (layer {}, z = {:.0} mm)",
+                p.layer, p.position_mm[2]
+            ))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c));
+    }
+    legend(&mut chart, SeriesLabelPosition::UpperRight)
 }
 
 fn dwells(area: &Area, scene: &Scene) -> Drawn {

@@ -54,6 +54,14 @@ impl Frame {
     }
 }
 
+/// One path point's temperature at every step of the heat model from when it was laid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct History {
+    pub point: usize,
+    pub t_s: Vec<f64>,
+    pub temperature_c: Vec<f64>,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Level {
     Info,
@@ -97,6 +105,8 @@ pub struct Scene {
     /// The same revolutions without dwells, where the run planned dwells.
     pub layers_without_dwells: Option<Vec<LayerRecord>>,
     pub frames: Vec<Frame>,
+    /// Step-by-step histories of a few points, where the run traced them.
+    pub histories: Vec<History>,
     pub events: Vec<Event>,
     pub probe: Option<Probe>,
     pub interpass_c: f64,
@@ -161,6 +171,16 @@ impl Scene {
             layers_without_dwells: r.before.map(|before| layer_records(b, before)),
             events: events(b, &points, r.before),
             frames,
+            histories: sim
+                .result
+                .traces
+                .iter()
+                .map(|t| History {
+                    point: t.deposit,
+                    t_s: t.time.clone(),
+                    temperature_c: t.temperature.iter().map(|&k| k - C).collect(),
+                })
+                .collect(),
             probe,
             interpass_c: b.params.dwell.interpass_max_k - C,
             ambient_c: b.params.thermal.ambient_k - C,

@@ -13,7 +13,7 @@ use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Ledger, SIGMA, Surroundings};
 use crate::run::{
-    Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, replay,
+    Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, Trace, replay,
 };
 use crate::schedule::{Deposit, validate};
 use crate::wall::read_fractions;
@@ -42,6 +42,9 @@ pub struct VoxelSettings {
     pub hot_threshold: f64,
     /// Times at which to keep the field, s (ascending).
     pub snapshot_times: Vec<f64>,
+    /// Deposits whose metal's temperature is kept at every step from when it is laid: a
+    /// history finer than the snapshots, which shows every pass of the torch.
+    pub traces: Vec<usize>,
     /// Stability margin on the explicit step (≤ 1).
     pub courant: f64,
 }
@@ -436,6 +439,17 @@ impl VoxelModel {
         }
     }
 
+    /// The temperature of deposit i's metal: the mean of its voxels, or of the nearest earlier
+    /// deposit's where it switched on none (as the snapshots take it).
+    fn metal_t(&self, i: usize) -> f64 {
+        (0..=i)
+            .rev()
+            .find(|&j| !self.laid[j].is_empty())
+            .map_or(self.settings.surroundings.ambient_k, |j| {
+                self.mean_t(&self.laid[j])
+            })
+    }
+
     fn mean_t(&self, v: &[u32]) -> f64 {
         if v.is_empty() {
             return self.settings.surroundings.ambient_k;
@@ -663,6 +677,7 @@ pub struct VoxelRun {
     read_at: Arc<Vec<Option<usize>>>,
     points: Vec<PointResult>,
     snapshots: Vec<Snapshot>,
+    traces: Vec<Trace>,
     underpowered: usize,
     now: f64,
     laid: usize,
@@ -710,6 +725,12 @@ impl VoxelRun {
             read_at: Arc::new(reads.iter().map(|r| r.map(|(j, _)| j)).collect()),
             points,
             snapshots: Vec::new(),
+            traces: model
+                .settings
+                .traces
+                .iter()
+                .map(|&d| Trace::new(d))
+                .collect(),
             underpowered: 0,
             laid: 0,
             next_probe: 0,
@@ -731,6 +752,12 @@ impl VoxelRun {
         let laid = self.laid + usize::from(source_on);
         self.model.observe(laid, dt, &mut self.points);
         self.model.keep(laid, self.now, &mut self.snapshots);
+        for tr in &mut self.traces {
+            if tr.deposit < laid {
+                tr.time.push(self.now);
+                tr.temperature.push(self.model.metal_t(tr.deposit));
+            }
+        }
     }
 
     /// The preheats read during deposit i's arc once `elapsed` of it has passed (those not
@@ -876,6 +903,7 @@ impl HeatRun for VoxelRun {
             points: self.points,
             support,
             snapshots: self.snapshots,
+            traces: self.traces,
             ledger: m.ledger,
             stored,
             balance_error: if e > 0.0 {
@@ -972,6 +1000,7 @@ mod tests {
             lead: 10e-3,
             hot_threshold: 873.15,
             snapshot_times: vec![],
+            traces: vec![],
             courant: 0.9,
         };
         (deps, settings)
