@@ -181,14 +181,8 @@ fn whole(v: &f64) -> String {
 
 /// "3–5, 9" from ascending numbers.
 fn ranges(v: impl Iterator<Item = usize>) -> String {
-    let mut out: Vec<(usize, usize)> = Vec::new();
-    for x in v {
-        match out.last_mut() {
-            Some(r) if r.1 + 1 == x => r.1 = x,
-            _ => out.push((x, x)),
-        }
-    }
-    out.iter()
+    super::scene::runs(&v.collect::<Vec<_>>())
+        .iter()
         .map(|&(a, b)| {
             if a == b {
                 a.to_string()

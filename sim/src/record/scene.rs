@@ -304,12 +304,23 @@ fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec
             });
         }
     }
-    for &i in &pl.collisions {
+    // One event per run of consecutive colliding points, not one per point.
+    for (a, b) in runs(&pl.collisions) {
+        let where_ = if a == b {
+            format!("point {a} (layer {})", points[a].layer)
+        } else {
+            format!(
+                "points {a}–{b} (layers {}–{}, {} points)",
+                points[a].layer,
+                points[b].layer,
+                b - a + 1
+            )
+        };
         ev.push(Event {
-            t_s: points[i].t_s,
+            t_s: points[a].t_s,
             level: Level::Warning,
             text: format!(
-                "nozzle collision at point {i}: the nozzle meets deposited metal (unresolved)"
+                "nozzle collision at {where_}: the nozzle meets deposited metal (unresolved)"
             ),
         });
     }
@@ -317,8 +328,29 @@ fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec
     ev
 }
 
+/// Runs of consecutive indices, (first, last), from ascending indices.
+pub(super) fn runs(v: &[usize]) -> Vec<(usize, usize)> {
+    let mut out: Vec<(usize, usize)> = Vec::new();
+    for &x in v {
+        match out.last_mut() {
+            Some(r) if r.1 + 1 == x => r.1 = x,
+            _ => out.push((x, x)),
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn consecutive_points_make_one_run() {
+        assert_eq!(
+            super::runs(&[3, 4, 5, 9, 11, 12]),
+            vec![(3, 5), (9, 9), (11, 12)]
+        );
+        assert!(super::runs(&[]).is_empty());
+    }
+
     #[test]
     fn wall_joins_each_point_to_the_one_beneath() {
         // Two revolutions of three generators and one more point.
