@@ -216,6 +216,22 @@ fn outputs_open_in_their_readers() {
         "{topics:?}"
     );
 
+    // report.html: the verdict, and every plot inlined.
+    let report = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(report.contains("id=\"verdict\""), "no verdict");
+    assert!(report.contains("Safe: no path point breaks a collapse criterion"));
+    let pngs = [
+        "preheat.png",
+        "deposits.png",
+        "temperature_history.png",
+        "dwells.png",
+    ];
+    assert_eq!(
+        report.matches("src=\"data:image/png;base64,").count(),
+        pngs.len()
+    );
+    assert!(files.contains(&"report.html"));
+
     // And by the reference readers.
     if !crate::system_tests("the reference readers (pip install into target/readers-venv)") {
         return;
@@ -242,4 +258,67 @@ fn each_sink_switches_off() {
         assert!(!out.join(f).exists(), "{f} written though switched off");
     }
     assert!(out.join("thermal.json").is_file());
+}
+
+/// report.html as a person opens it: headless Chromium (Debian's package, installed by
+/// tests/chromium/install.sh) renders it, every inlined plot decodes (the page's own check), and
+/// a screenshot is taken. Opt-in (`crate::SYSTEM_TESTS`): it installs a browser as root.
+#[test]
+fn report_renders_in_a_browser() {
+    if !crate::system_tests("report.html in headless Chromium (installed as root)") {
+        return;
+    }
+    let install = Command::new("bash")
+        .arg(root().join("tests/chromium/install.sh"))
+        .output()
+        .unwrap();
+    assert!(
+        install.status.success(),
+        "Chromium did not install: {}",
+        String::from_utf8_lossy(&install.stderr)
+    );
+    let browser = String::from_utf8_lossy(&install.stdout).trim().to_string();
+    let out = run_dome("report_dome", "");
+    let page = format!("file://{}", out.join("report.html").display());
+    let profile = out.parent().unwrap().join("chromium-profile");
+    let chromium = |extra: &[&str]| {
+        Command::new(&browser)
+            .args([
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--virtual-time-budget=5000",
+            ])
+            .arg(format!("--user-data-dir={}", profile.display()))
+            .args(extra)
+            .arg(&page)
+            .output()
+            .unwrap()
+    };
+    let dom = chromium(&["--dump-dom"]);
+    let text = String::from_utf8_lossy(&dom.stdout);
+    assert!(
+        text.contains("data-images=\"ok\""),
+        "the plots did not all decode: {}",
+        String::from_utf8_lossy(&dom.stderr)
+    );
+    let shot = out.parent().unwrap().join("report.png");
+    let _ = std::fs::remove_file(&shot);
+    let s = chromium(&[
+        &format!("--screenshot={}", shot.display()),
+        "--window-size=1100,2600",
+    ]);
+    let png = std::fs::read(&shot).unwrap_or_else(|e| {
+        panic!(
+            "no screenshot ({e}): {}",
+            String::from_utf8_lossy(&s.stderr)
+        )
+    });
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    // A page of four plots is far from blank: a blank 1100 × 2600 page compresses to a few kB.
+    assert!(png.len() > 100_000, "screenshot of {} bytes", png.len());
 }

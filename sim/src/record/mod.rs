@@ -16,6 +16,8 @@ mod foxglove;
 #[cfg(feature = "recording")]
 mod plots;
 #[cfg(feature = "recording")]
+mod report;
+#[cfg(feature = "recording")]
 mod rerun_sink;
 mod scene;
 #[cfg(feature = "recording")]
@@ -82,6 +84,10 @@ pub fn sinks(o: &RawOutput) -> Vec<Box<dyn Sink>> {
     }
     if o.plots {
         v.push(Box::new(plots::PlotSink));
+    }
+    // Last: it inlines the plots written just before it.
+    if o.report {
+        v.push(Box::new(report::ReportSink));
     }
     v
 }

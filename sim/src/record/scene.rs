@@ -89,6 +89,8 @@ pub struct Probe {
 #[derive(Debug, Clone)]
 pub struct Scene {
     pub title: String,
+    /// A closed part: the spiral ends at a closing point.
+    pub closed: bool,
     /// The scenario as the manifest echoes it.
     pub scenario: serde_json::Value,
     /// The part's mid-surface, mm.
@@ -157,6 +159,7 @@ impl Scene {
         let centre = crate::pipeline::deposition::plate_centre(&sim.deposits).map(|c| c * 1e3);
         Scene {
             title: r.title.to_string(),
+            closed: pl.closing_point.is_some(),
             scenario: s.to_json(),
             part: r.part.clone(),
             plate_centre_mm: centre,

@@ -286,6 +286,8 @@ pub struct RawOutput {
     pub mcap: bool,
     pub hdf5: bool,
     pub plots: bool,
+    /// report.html, the page to open first (the plots inlined).
+    pub report: bool,
     /// Most times the temperature field is kept (fewer on long paths: `record::frame_times`).
     pub frames: usize,
 }
@@ -297,6 +299,7 @@ impl Default for RawOutput {
             mcap: true,
             hdf5: true,
             plots: true,
+            report: true,
             frames: 100,
         }
     }

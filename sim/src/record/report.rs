@@ -1,0 +1,255 @@
+//! report.html: the one page a process engineer opens first. Self-contained (the plots inlined
+//! as data URIs, no script from elsewhere, no font to fetch): the verdict (safe or not, where and
+//! why), the plan's key numbers, the plots, and what each file of the run is for. Written after
+//! the plot sink, whose PNGs it inlines.
+
+use super::foxglove::base64;
+use super::{Moment, Scene, Sink};
+use crate::error::{Error, Result};
+use crate::output::RunDir;
+use std::fmt::Write;
+
+pub struct ReportSink;
+
+/// The plots, in reading order, with what each shows.
+const PLOTS: [(&str, &str); 4] = [
+    (
+        "preheat.png",
+        "Preheat per revolution against the interpass limit, with and without the planned dwells.",
+    ),
+    (
+        "temperature_history.png",
+        "The wall's temperature at three path points, every step of the heat model.",
+    ),
+    (
+        "dwells.png",
+        "The dwell schedule: dwell time per revolution.",
+    ),
+    (
+        "deposits.png",
+        "Deposit heights of the CTPP spiral against planar 2.5D slicing, with the process window.",
+    ),
+];
+
+/// The files a run may hold, with what each is for.
+const FILES: [(&str, &str); 12] = [
+    (
+        "plan.json",
+        "the plan's key numbers: generators, layers, deposits, feasibility (Eq.6), collisions",
+    ),
+    (
+        "path.csv",
+        "one row per path point: position, tool axis, layer, deposit, wire feed, travel speed, time, dwell, and the simulated preheat, peak and pool",
+    ),
+    ("generators.csv", "the geodesic generators of the spiral"),
+    (
+        "thermal.json",
+        "the heat model's summary: energy balance, hottest preheat, first point at risk, cells",
+    ),
+    (
+        "layers.csv",
+        "one row per revolution: start, duration, preheat max and mean, dwell, risk",
+    ),
+    (
+        "dwells.csv",
+        "one row per dwell (each an arc stop and restart): where, when, how long, why",
+    ),
+    (
+        "dwell.json",
+        "the dwell plan's summary, the points still at risk and the baselines",
+    ),
+    (
+        "run.rrd",
+        "the build in the rerun viewer 0.36: part, spiral, torch, the wall coloured by temperature",
+    ),
+    (
+        "run.mcap",
+        "the same for Foxglove: 3-D scene, point cloud with temperatures, plots, event log",
+    ),
+    (
+        "fields.h5",
+        "the temperature field for ParaView ≥ 5.12 (VTKHDF) and h5py",
+    ),
+    (
+        "manifest.json",
+        "what ran, when, with which scenario, and the list of files",
+    ),
+    ("part.stl", "the part's mid-surface (the demo)"),
+];
+
+impl Sink for ReportSink {
+    fn begin(&mut self, _scene: &Scene, _dir: &RunDir) -> Result<()> {
+        Ok(())
+    }
+
+    fn moment(&mut self, _scene: &Scene, _m: Moment<'_>) -> Result<()> {
+        Ok(())
+    }
+
+    fn finish(self: Box<Self>, scene: &Scene, dir: &mut RunDir) -> Result<()> {
+        let mut plots = Vec::new();
+        for (name, what) in PLOTS {
+            let path = dir.path().join(name);
+            if path.is_file() {
+                let png = std::fs::read(&path)
+                    .map_err(|e| Error::failure(format!("{}: {e}", path.display())))?;
+                plots.push((name, what, png));
+            }
+        }
+        let present = |f: &str| dir.path().join(f).is_file();
+        let files: Vec<(&str, &str)> = FILES
+            .iter()
+            .copied()
+            .filter(|(f, _)| present(f) || *f == "manifest.json")
+            .collect();
+        dir.write("report.html", page(scene, &plots, &files).as_bytes())?;
+        Ok(())
+    }
+}
+
+/// The verdict in one sentence, and the evidence under it.
+fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
+    let risky: Vec<usize> = (0..scene.points.len())
+        .filter(|&i| scene.points[i].risk.is_some())
+        .collect();
+    let above: Vec<usize> = scene
+        .layers
+        .iter()
+        .filter(|l| l.preheat_max_c > scene.interpass_c)
+        .map(|l| l.layer)
+        .collect();
+    let mut evidence = Vec::new();
+    let safe = risky.is_empty();
+    let headline = match risky.first() {
+        None => format!(
+            "Safe: no path point breaks a collapse criterion (interpass limit {:.0} °C).",
+            scene.interpass_c
+        ),
+        Some(&i) => {
+            let p = &scene.points[i];
+            format!(
+                "At risk: {} path points break a collapse criterion, the first at point {i} \
+                 (layer {}, {}), preheat {:.0} °C against the {:.0} °C limit.",
+                risky.len(),
+                p.layer,
+                p.risk.unwrap_or("?"),
+                p.preheat_c,
+                scene.interpass_c
+            )
+        }
+    };
+    if !above.is_empty() {
+        let runs = super::scene::runs(&above)
+            .iter()
+            .map(|&(a, b)| {
+                if a == b {
+                    a.to_string()
+                } else {
+                    format!("{a}–{b}")
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        evidence.push(format!(
+            "Revolutions whose hottest preheat passes the limit: {runs}. Where no point there is \
+             judged at risk, the metal beneath was laid inside the torch's footprint when its \
+             preheat was read (the arc's own heat, near a closing point), which the criteria do \
+             not judge; see docs/PHYSICS.md."
+        ));
+    }
+    (safe, headline, evidence)
+}
+
+fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) -> String {
+    let (safe, headline, evidence) = verdict(scene);
+    let dwell_total: f64 = scene.points.iter().map(|p| p.dwell_s).sum();
+    let stops = scene.points.iter().filter(|p| p.dwell_s > 0.0).count();
+    let revolutions = scene.layers.len();
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
+         <title>{title}: waamtwin report</title>\n<style>\
+         body{{font-family:sans-serif;max-width:1040px;margin:2em auto;color:#222}}\
+         .verdict{{padding:1em;border-radius:6px;font-size:1.2em}}\
+         .safe{{background:#e3f5e1;border:2px solid #3a9b3a}}\
+         .risk{{background:#fbe4e1;border:2px solid #c0392b}}\
+         table{{border-collapse:collapse}}td,th{{padding:4px 12px;border-bottom:1px solid #ddd;text-align:left}}\
+         img{{max-width:100%;border:1px solid #ccc}}figcaption{{color:#555;margin-bottom:1.5em}}\
+         </style></head><body>\n<h1>{title}</h1>\n",
+        title = escape(&scene.title)
+    );
+    let _ = write!(
+        h,
+        "<p class=\"verdict {}\" id=\"verdict\">{}</p>\n",
+        if safe { "safe" } else { "risk" },
+        escape(&headline)
+    );
+    for e in &evidence {
+        let _ = writeln!(h, "<p>{}</p>", escape(e));
+    }
+    h.push_str("<h2>The plan</h2>\n<table>\n");
+    let rows = [
+        ("revolutions (layers)", revolutions.to_string()),
+        ("path points", scene.points.len().to_string()),
+        (
+            "arc stops (dwells; one arc start and one stop for the spiral besides)",
+            stops.to_string(),
+        ),
+        ("dwell in all", format!("{dwell_total:.0} s")),
+        ("build time", format!("{:.0} s", scene.build_s)),
+        (
+            "process window (deposit height)",
+            format!("{:.2}–{:.2} mm", scene.window_mm[0], scene.window_mm[1]),
+        ),
+        ("interpass limit", format!("{:.0} °C", scene.interpass_c)),
+    ];
+    let closing = scene.closed.then(|| {
+        (
+            "closing strategy",
+            "none: the spiral runs on to the closing point, cooled by the dwells above".to_string(),
+        )
+    });
+    for (k, v) in rows.into_iter().chain(closing) {
+        let _ = writeln!(h, "<tr><th>{}</th><td>{}</td></tr>", escape(k), escape(&v));
+    }
+    h.push_str("</table>\n<h2>Plots</h2>\n");
+    for (name, what, png) in plots {
+        let _ = write!(
+            h,
+            "<figure><img alt=\"{name}\" src=\"data:image/png;base64,{}\">\
+             <figcaption>{} ({name})</figcaption></figure>\n",
+            base64(png),
+            escape(what)
+        );
+    }
+    h.push_str("<h2>The files of this run</h2>\n<table>\n");
+    for (f, what) in files {
+        let _ = writeln!(h, "<tr><th>{f}</th><td>{}</td></tr>", escape(what));
+    }
+    // Tells a headless browser (and its test) whether every inlined plot decoded.
+    h.push_str(
+        "</table>\n<script>window.addEventListener('load',function(){var ok=true;\
+         for(var i of document.images){ok=ok&&i.complete&&i.naturalWidth>0;}\
+         document.body.setAttribute('data-images',ok?'ok':'broken');});</script>\n</body></html>\n",
+    );
+    h
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn text_is_escaped() {
+        assert_eq!(
+            super::escape("a<b & \"c\">"),
+            "a&lt;b &amp; &quot;c&quot;&gt;"
+        );
+    }
+}
