@@ -179,9 +179,9 @@ fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) 
          </style></head><body>\n<h1>{title}</h1>\n",
         title = escape(&scene.title)
     );
-    let _ = write!(
+    let _ = writeln!(
         h,
-        "<p class=\"verdict {}\" id=\"verdict\">{}</p>\n",
+        "<p class=\"verdict {}\" id=\"verdict\">{}</p>",
         if safe { "safe" } else { "risk" },
         escape(&headline)
     );
@@ -215,10 +215,10 @@ fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) 
     }
     h.push_str("</table>\n<h2>Plots</h2>\n");
     for (name, what, png) in plots {
-        let _ = write!(
+        let _ = writeln!(
             h,
             "<figure><img alt=\"{name}\" src=\"data:image/png;base64,{}\">\
-             <figcaption>{} ({name})</figcaption></figure>\n",
+             <figcaption>{} ({name})</figcaption></figure>",
             base64(png),
             escape(what)
         );
