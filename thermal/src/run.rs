@@ -143,8 +143,8 @@ pub trait HeatRun: Clone {
     fn temperature_beneath(&self, i: usize) -> f64;
     /// Temperature now of deposit i's own metal, K.
     fn temperature_of(&self, i: usize) -> f64;
-    /// The longest step the model takes while cooling, s: a caller that cools in pieces and
-    /// wants the state one call gives needs it (the dwell planner's cache).
+    /// How the model steps through a cooling: a caller that cools in pieces and wants the
+    /// state one call gives needs it (the dwell planner's cache).
     fn cooling_steps(&self) -> CoolingSteps;
     fn finish(self) -> RunResult;
 }
