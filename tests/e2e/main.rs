@@ -3,6 +3,7 @@
 mod bead;
 mod cli;
 mod ctpp;
+mod determinism;
 mod dwell;
 mod inspect;
 mod outputs;
