@@ -167,7 +167,7 @@ fn preheat(area: &Area, scene: &Scene) -> Drawn {
                 } else {
                     " with dwells"
                 },
-                ranges(above.iter().map(|l| l.layer))
+                super::scene::ranges(&above.iter().map(|l| l.layer).collect::<Vec<_>>())
             ))
             .legend(move |(x, y)| Circle::new((x + 10, y), 5, red.stroke_width(2)));
     }
@@ -177,21 +177,6 @@ fn preheat(area: &Area, scene: &Scene) -> Drawn {
 /// An axis label without decimals: revolutions, °C and seconds are read as whole numbers.
 fn whole(v: &f64) -> String {
     format!("{v:.0}")
-}
-
-/// "3–5, 9" from ascending numbers.
-fn ranges(v: impl Iterator<Item = usize>) -> String {
-    super::scene::runs(&v.collect::<Vec<_>>())
-        .iter()
-        .map(|&(a, b)| {
-            if a == b {
-                a.to_string()
-            } else {
-                format!("{a}–{b}")
-            }
-        })
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
@@ -489,15 +474,6 @@ pub fn study_plots(dir: &mut RunDir, cases: &[Case]) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn ranges_join_consecutive_numbers() {
-        assert_eq!(
-            super::ranges([3, 4, 5, 9, 11, 12].into_iter()),
-            "3–5, 9, 11–12"
-        );
-        assert_eq!(super::ranges(std::iter::empty()), "");
-    }
-
     #[test]
     fn histogram_shares_sum_to_one_inside_the_range() {
         let h = super::histogram(&[1.81, 1.84, 2.0, 2.19], 1.8, 0.05, 8);

@@ -139,17 +139,7 @@ fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
         }
     };
     if !above.is_empty() {
-        let runs = super::scene::runs(&above)
-            .iter()
-            .map(|&(a, b)| {
-                if a == b {
-                    a.to_string()
-                } else {
-                    format!("{a}–{b}")
-                }
-            })
-            .collect::<Vec<_>>()
-            .join(", ");
+        let runs = super::scene::ranges(&above);
         evidence.push(format!(
             "Revolutions whose hottest preheat passes the limit: {runs}. Where no point there is \
              judged at risk, the metal beneath was laid inside the torch's footprint when its \

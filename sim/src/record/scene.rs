@@ -331,6 +331,21 @@ fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec
     ev
 }
 
+/// "3–5, 9" from ascending numbers.
+pub(super) fn ranges(v: &[usize]) -> String {
+    runs(v)
+        .iter()
+        .map(|&(a, b)| {
+            if a == b {
+                a.to_string()
+            } else {
+                format!("{a}–{b}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Runs of consecutive indices, (first, last), from ascending indices.
 pub(super) fn runs(v: &[usize]) -> Vec<(usize, usize)> {
     let mut out: Vec<(usize, usize)> = Vec::new();
