@@ -71,6 +71,50 @@ pub fn validate(deposits: &[Deposit]) -> Result<(), ThermalError> {
     Ok(())
 }
 
+/// Per deposit, the deposit during whose arc the torch passes `lead` upstream of it (`None`:
+/// before the path starts).
+pub fn read_points(deps: &[Deposit], lead: f64) -> Vec<Option<usize>> {
+    read_fractions(deps, lead)
+        .into_iter()
+        .map(|r| r.map(|(j, _)| j))
+        .collect()
+}
+
+/// [`read_points`] with the fraction of that deposit's segment (and so of its arc time) at
+/// which the torch is exactly `lead` upstream: the reading is interpolated there, as the
+/// interface defines it, not taken at the arc's end (which would put it up to one point
+/// spacing closer to the arc, by how the spacing happens to fall).
+pub fn read_fractions(deps: &[Deposit], lead: f64) -> Vec<Option<(usize, f64)>> {
+    let s = arc_lengths(deps);
+    (0..deps.len())
+        .map(|i| {
+            let target = s[i] - lead;
+            (target >= 0.0).then(|| {
+                let j = s.partition_point(|&x| x < target).min(i);
+                let f = if j == 0 {
+                    1.0
+                } else {
+                    ((target - s[j - 1]) / (s[j] - s[j - 1]).max(1e-12)).clamp(0.0, 1.0)
+                };
+                (j, f)
+            })
+        })
+        .collect()
+}
+
+/// Arc length of the path at each deposit, m.
+fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
+    let mut s = vec![0.0; deps.len()];
+    for i in 1..deps.len() {
+        s[i] = s[i - 1] + distance(deps[i].position, deps[i - 1].position);
+    }
+    s
+}
+
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
 /// A helical wall on the plate: `per_revolution` deposits a revolution of radius `r`, each
 /// revolution `height` higher, bead `width`, travel `speed`, heat entering at `heat_rate` (η·P,
 /// W). The simplest schedule, for verification and benchmarks.

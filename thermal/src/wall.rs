@@ -13,7 +13,7 @@ use crate::network::{Network, Surroundings};
 use crate::run::{
     Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, Trace, replay,
 };
-use crate::schedule::{Deposit, validate};
+use crate::schedule::{Deposit, read_fractions, validate};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -595,46 +595,6 @@ fn segment_share(deps: &[Deposit], i: usize, length: &[f64], node_of: &[usize]) 
         dist(deps[i].position, deps[i - 1].position).max(1e-6)
     };
     (seg / length[node_of[i]]).min(1.0)
-}
-
-/// Per deposit, the deposit during whose arc the torch passes `lead` upstream of it (`None`:
-/// before the path starts).
-pub fn read_points(deps: &[Deposit], lead: f64) -> Vec<Option<usize>> {
-    read_fractions(deps, lead)
-        .into_iter()
-        .map(|r| r.map(|(j, _)| j))
-        .collect()
-}
-
-/// [`read_points`] with the fraction of that deposit's segment (and so of its arc time) at
-/// which the torch is exactly `lead` upstream: the reading is interpolated there, as the
-/// interface defines it, not taken at the arc's end (which would put it up to one point
-/// spacing closer to the arc, by how the spacing happens to fall).
-pub fn read_fractions(deps: &[Deposit], lead: f64) -> Vec<Option<(usize, f64)>> {
-    let s = arc_lengths(deps);
-    (0..deps.len())
-        .map(|i| {
-            let target = s[i] - lead;
-            (target >= 0.0).then(|| {
-                let j = s.partition_point(|&x| x < target).min(i);
-                let f = if j == 0 {
-                    1.0
-                } else {
-                    ((target - s[j - 1]) / (s[j] - s[j - 1]).max(1e-12)).clamp(0.0, 1.0)
-                };
-                (j, f)
-            })
-        })
-        .collect()
-}
-
-/// Arc length of the path at each deposit, m.
-fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
-    let mut s = vec![0.0; deps.len()];
-    for i in 1..deps.len() {
-        s[i] = s[i - 1] + dist(deps[i].position, deps[i - 1].position);
-    }
-    s
 }
 
 /// The arc's heat over the footprint: the nodes behind the torch along the path (its own node

@@ -17,7 +17,7 @@ use super::params::DwellSettings;
 use super::risk::{Criteria, Risk, judge};
 use planner::plan::Plan;
 use thermal::schedule::Deposit;
-use thermal::wall::read_points;
+use thermal::schedule::read_points;
 use thermal::{CoolingSteps, HeatModel, HeatRun, Support, ThermalError};
 
 /// What a dwell search judges by and aims for.

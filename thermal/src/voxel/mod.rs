@@ -15,8 +15,7 @@ use crate::network::{Ledger, SIGMA, Surroundings};
 use crate::run::{
     Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, Trace, replay,
 };
-use crate::schedule::{Deposit, validate};
-use crate::wall::read_fractions;
+use crate::schedule::{Deposit, read_fractions, validate};
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
 use std::collections::HashMap;
