@@ -39,8 +39,10 @@ fn demo_writes_a_manifest_listing_its_files() {
         assert!(!m[key].is_null(), "manifest lacks {key}");
     }
     assert_eq!(m["scenario"]["part"]["shape"], "hemisphere");
-    // What a person opens shows physical temperatures (fields.h5, run.mcap).
+    // What a person opens shows physical temperatures (fields.h5, run.mcap; run.rrd through
+    // the reference readers).
     crate::outputs::assert_physical(&dir);
+    crate::outputs::open_in_readers(&dir);
     for f in [
         "plan.json",
         "path.csv",

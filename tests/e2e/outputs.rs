@@ -149,10 +149,11 @@ fn voxel_outputs_are_physical() {
         "outputs_voxel",
         "simulate",
         "[part]\nshape = \"hemisphere\"\nradius_mm = 25.0\nedge_mm = 2.5\n[planner]\nn_points = 48\n\
-         [thermal]\nmodel = \"voxel\"\nplate_mm = [90.0, 90.0, 8.0]\n[output]\nrerun = false\nplots = false\nframes = 30\n",
+         [thermal]\nmodel = \"voxel\"\nplate_mm = [90.0, 90.0, 8.0]\n[output]\nplots = false\nframes = 30\n",
     );
     assert_eq!(json(&out.join("thermal.json"))["model"], "voxel");
     assert_physical(&out);
+    open_in_readers(&out);
 }
 
 #[test]
@@ -233,13 +234,20 @@ fn outputs_open_in_their_readers() {
     assert!(files.contains(&"report.html"));
 
     // And by the reference readers.
+    open_in_readers(&out);
+}
+
+/// The reference readers of each format (tests/readers/check_outputs.py) open the run's files,
+/// and every value run.rrd shows for the wall is physical. Opt-in: it installs the readers from
+/// PyPI.
+pub fn open_in_readers(out: &Path) {
     if !crate::system_tests("the reference readers (pip install into target/readers-venv)") {
         return;
     }
     let venv = readers();
     let check = Command::new(venv.join("bin/python"))
         .arg(root().join("tests/readers/check_outputs.py"))
-        .arg(&out)
+        .arg(out)
         .arg(venv.join("bin/rerun"))
         .output()
         .unwrap();

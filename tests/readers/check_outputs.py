@@ -3,10 +3,13 @@
     python tests/readers/check_outputs.py RUN_DIR [RERUN_BIN]
 
 run.rrd: the rerun-sdk 0.36.3 package's `rerun rrd verify`, then `rerun rrd print` for the
-entities the recording promises. run.mcap: the `mcap` reader with CRC checks; every message
+entities the recording promises, then every row of the wall's temperatures (rerun's RrdReader):
+every laid point between ambient less 1 K and the highest peak in path.csv, the laid count never
+falling, and the hottest-metal plot within the same bounds. run.mcap: the `mcap` reader with CRC checks; every message
 validated against its channel's JSON schema (jsonschema), log times in order, zstd chunks, the
 scenario metadata record. fields.h5: h5py and VTK's vtkHDFReader read back the temperature that
-thermal.json states for its probe point. Exit 0 when every check holds; 1 with the failures.
+thermal.json states for its probe point; so does VTK's Xdmf2 reader (ParaView 5.11's "XDMF
+Reader") through fields.xdmf, with every step. Exit 0 when every check holds; 1 with the failures.
 """
 
 import json
@@ -35,8 +38,8 @@ def close(a, b):
 RRD_ENTITIES = [
     "/world", "/world/part", "/world/plate", "/world/plan/spiral", "/world/plan/generators",
     "/world/torch", "/world/wall", "/world/deposited/0000", "/plots/preheat_c",
-    "/plots/interpass_max_c", "/plots/power_w", "/plots/dwell_s", "/plots/max_temperature_c",
-    "/events", "/__properties/scenario", "/viewport",
+    "/plots/interpass_max_c", "/plots/power_w", "/plots/max_temperature_c", "/world/temperature",
+    "/legend", "/events", "/__properties/scenario", "/viewport", "/time_panel",
 ]
 
 
@@ -52,12 +55,47 @@ def check_rrd(run, rerun):
     check("Blueprint" in p.stdout, "run.rrd carries a blueprint")
 
 
+def highest_peak(run):
+    import csv
+
+    with open(os.path.join(run, "path.csv")) as f:
+        return max(float(r["peak_c"]) for r in csv.DictReader(f))
+
+
+def check_rrd_bounds(run):
+    """Every value the recording shows for the wall is physical."""
+    from rerun.experimental import RrdReader
+
+    peak = highest_peak(run)
+    lo, hi = 19.0, peak + 0.01
+    rows, hottest = [], []
+    for chunk in RrdReader(os.path.join(run, "run.rrd")).stream():
+        batch = chunk.to_record_batch()
+        names = batch.schema.names
+        if chunk.entity_path == "/world/temperature" and "temperature_c" in names:
+            rows += zip(batch.column("sim_time").cast("int64").to_pylist(), batch.column("temperature_c").to_pylist())
+        if chunk.entity_path == "/plots/max_temperature_c" and "Scalars:scalars" in names:
+            hottest += [v for row in batch.column("Scalars:scalars").to_pylist() for v in row]
+    rows.sort(key=lambda r: r[0])
+    check(len(rows) > 1, f"run.rrd: {len(rows)} frames of /world/temperature")
+    before, outside = 0, []
+    for t, values in rows:
+        if len(values) < before:
+            check(False, f"run.rrd at {t} ns: {len(values)} laid after {before}")
+        before = len(values)
+        outside += [(t, i, v) for i, v in enumerate(values) if not lo <= v <= hi]
+    check(not outside, f"run.rrd: every laid point in [{lo}, {hi:.2f}] °C in every frame {outside[:3]}")
+    check(len(hottest) > len(rows), f"run.rrd: the hottest laid metal at {len(hottest)} steps")
+    bad = [v for v in hottest if not lo <= v <= hi]
+    check(not bad, f"run.rrd: the hottest laid metal within [{lo}, {hi:.2f}] °C {bad[:3]}")
+
+
 MCAP_TOPICS = {
     "/part": "foxglove.SceneUpdate", "/plan": "foxglove.SceneUpdate",
     "/deposited": "foxglove.SceneUpdate", "/wall/temperature": "foxglove.PointCloud",
     "/tf": "foxglove.FrameTransform", "/torch": "foxglove.SceneUpdate",
     "/events": "foxglove.Log", "/plot/point": "waamtwin.PointResult",
-    "/plot/field": "waamtwin.FieldSummary",
+    "/plot/field": "waamtwin.FieldSummary", "/plot/hottest": "waamtwin.Hottest",
 }
 
 
@@ -127,12 +165,37 @@ def check_fields(run):
           f"vtkHDFReader: temperature {t:.4f} °C at the probe = simulation {probe['temperature_c']:.4f} °C")
 
 
+def check_xdmf(run):
+    """fields.xdmf, the form ParaView 5.11 reads with all its steps."""
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as pipeline
+    from vtkmodules.vtkIOXdmf2 import vtkXdmfReader
+
+    probe = json.load(open(os.path.join(run, "thermal.json")))["probe"]
+    with h5py.File(os.path.join(run, "fields.h5"), "r") as f:
+        n = int(f["VTKHDF/NumberOfPoints"][0])
+        times = list(f["VTKHDF/Steps/Values"])
+    reader = vtkXdmfReader()
+    reader.SetFileName(os.path.join(run, "fields.xdmf"))
+    reader.UpdateInformation()
+    steps = reader.GetOutputInformation(0).Get(pipeline.TIME_STEPS())
+    check(steps is not None and len(steps) == len(times),
+          f"Xdmf2 reader sees {0 if steps is None else len(steps)} of {len(times)} time steps")
+    reader.UpdateTimeStep(probe["t_s"])
+    out = reader.GetOutputDataObject(0)
+    check(out.GetNumberOfPoints() == n and out.GetNumberOfCells() > 0, "Xdmf2 reader reads the wall mesh")
+    t = out.GetPointData().GetArray("temperature_c").GetValue(probe["point"])
+    check(close(t, probe["temperature_c"]),
+          f"Xdmf2 reader: temperature {t:.4f} °C at the probe = simulation {probe['temperature_c']:.4f} °C")
+
+
 def main():
     run = sys.argv[1]
     rerun = sys.argv[2] if len(sys.argv) > 2 else "rerun"
     check_rrd(run, rerun)
+    check_rrd_bounds(run)
     check_mcap(run)
     check_fields(run)
+    check_xdmf(run)
     print(f"{len(failures)} failures")
     sys.exit(1 if failures else 0)
 

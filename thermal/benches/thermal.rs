@@ -45,6 +45,7 @@ fn main() {
         hot_threshold: 873.15,
         snapshot_times: vec![],
         traces: vec![],
+        trace_hottest: false,
         courant: 0.9,
     };
     for threads in [1, 2] {
@@ -93,6 +94,7 @@ fn main() {
         max_step: 30.0,
         snapshot_times: vec![],
         traces: vec![],
+        trace_hottest: false,
     };
     let t = Instant::now();
     let r = WallModel::build(&deps, &ws)

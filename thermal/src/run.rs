@@ -84,6 +84,26 @@ impl Trace {
     }
 }
 
+/// The hottest laid metal at every step (the settings' `trace_hottest`): what the arc does to the
+/// part between snapshots, every pass's peak included.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Hottest {
+    /// s.
+    pub time: Vec<f64>,
+    /// K.
+    pub temperature: Vec<f64>,
+}
+
+impl Hottest {
+    /// Keep `t` at `now` when the run traces the hottest metal and some metal is laid.
+    pub(crate) fn push(&mut self, on: bool, now: f64, t: f64) {
+        if on && t.is_finite() {
+            self.time.push(now);
+            self.temperature.push(t);
+        }
+    }
+}
+
 /// How a model discretised the part, and what it cost.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Cells {
@@ -110,6 +130,8 @@ pub struct RunResult {
     pub snapshots: Vec<Snapshot>,
     /// The settings' traced deposits, step by step.
     pub traces: Vec<Trace>,
+    /// The hottest laid metal, step by step (empty unless the settings ask for it).
+    pub hottest: Hottest,
     pub ledger: Ledger,
     /// Energy held by the part at the end above ambient, J.
     pub stored: f64,
@@ -220,6 +242,14 @@ impl HeatModel {
         match self {
             HeatModel::ThinWall(s) => s.traces = deposits,
             HeatModel::Voxel(s) => s.traces = deposits,
+        }
+    }
+
+    /// Whether the hottest laid metal is kept at every step ([`RunResult::hottest`]).
+    pub fn set_trace_hottest(&mut self, on: bool) {
+        match self {
+            HeatModel::ThinWall(s) => s.trace_hottest = on,
+            HeatModel::Voxel(s) => s.trace_hottest = on,
         }
     }
 }

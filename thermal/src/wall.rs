@@ -11,7 +11,8 @@ use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Network, Surroundings};
 use crate::run::{
-    Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, Trace, replay,
+    Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, RunResult, Snapshot, Support, Trace,
+    replay,
 };
 use crate::schedule::{Deposit, read_fractions, validate};
 use std::collections::HashMap;
@@ -39,6 +40,9 @@ pub struct WallSettings {
     /// Deposits whose metal's temperature is kept at every step from when it is laid: a
     /// history finer than the snapshots, which shows every pass of the torch.
     pub traces: Vec<usize>,
+    /// Keep the hottest laid metal at every step ([`crate::run::Hottest`]); off for the dwell
+    /// planner's runs, whose checkpoints it would only make longer.
+    pub trace_hottest: bool,
 }
 
 struct Layout {
@@ -314,6 +318,7 @@ pub struct WallRun {
     snapshots: Vec<Snapshot>,
     next_snapshot: usize,
     traces: Vec<Trace>,
+    hottest: Hottest,
     power: Vec<f64>,
     below: Arc<Vec<usize>>,
     /// Time now, s; deposits laid so far.
@@ -357,6 +362,7 @@ impl WallRun {
             snapshots: Vec::new(),
             next_snapshot: 0,
             traces: s.traces.iter().map(|&d| Trace::new(d)).collect(),
+            hottest: Hottest::default(),
             cooling_step: 1.0,
             power: vec![0.0; n],
             below: Arc::new(below),
@@ -421,6 +427,11 @@ impl WallRun {
                 tr.time.push(self.now);
                 tr.temperature.push(net.t[self.model.node_of[tr.deposit]]);
             }
+        }
+        if self.settings.trace_hottest && self.laid > 0 {
+            let node_of = &self.model.node_of[..self.laid];
+            let hottest = node_of.iter().map(|&k| net.t[k]).fold(f64::NAN, f64::max);
+            self.hottest.push(true, self.now, hottest);
         }
         let times = &self.settings.snapshot_times;
         while self.next_snapshot < times.len() && times[self.next_snapshot] <= self.now + 1e-9 {
@@ -573,6 +584,7 @@ impl HeatRun for WallRun {
             support,
             snapshots: self.snapshots,
             traces: self.traces,
+            hottest: self.hottest,
             ledger: net.ledger,
             stored: net.stored(),
             balance_error: net.balance_error(),

@@ -40,6 +40,7 @@ fn models(material: Material) -> [HeatModel; 2] {
             max_step: 30.0,
             snapshot_times: vec![5.0, 25.0],
             traces: vec![],
+            trace_hottest: false,
         }),
         HeatModel::Voxel(VoxelSettings {
             material,
@@ -51,6 +52,7 @@ fn models(material: Material) -> [HeatModel; 2] {
             hot_threshold: 873.15,
             snapshot_times: vec![5.0, 25.0],
             traces: vec![],
+            trace_hottest: false,
             courant: 0.9,
         }),
     ]
@@ -238,4 +240,42 @@ fn a_trace_follows_every_step_and_holds_the_peak() {
             );
         }
     }
+}
+
+/// The hottest laid metal, kept at every step, is at least every traced deposit's temperature
+/// at that step, its highest value is the highest peak of the run, and it reads above
+/// ambient throughout.
+#[test]
+fn the_hottest_metal_bounds_every_trace_and_reaches_the_highest_peak() {
+    let deps = schedule();
+    for mut model in models(Material::g3si()) {
+        model.set_traces(vec![10, 50]);
+        model.set_trace_hottest(true);
+        let r = model.simulate(&deps).unwrap();
+        let h = &r.hottest;
+        assert!(h.time.len() >= r.traces[0].time.len(), "{}", model.name());
+        assert!(h.time.windows(2).all(|w| w[1] > w[0]));
+        for t in &r.traces {
+            for (time, temp) in t.time.iter().zip(&t.temperature) {
+                let k = h.time.partition_point(|&x| x < time - 1e-12);
+                assert!(
+                    h.temperature[k] >= temp - 1e-9,
+                    "{} at {time} s: hottest {} K < trace {temp} K",
+                    model.name(),
+                    h.temperature[k]
+                );
+            }
+        }
+        let top = h.temperature.iter().copied().fold(f64::NAN, f64::max);
+        let peak = r.points.iter().map(|p| p.peak).fold(f64::NAN, f64::max);
+        assert!(
+            (top - peak).abs() < 1e-6,
+            "{}: {top} vs {peak}",
+            model.name()
+        );
+        assert!(h.temperature.iter().all(|&t| t > 293.15 - 1.0));
+    }
+    // Off unless asked for: the dwell planner's checkpoints stay small.
+    let r = models(Material::g3si())[0].simulate(&deps).unwrap();
+    assert!(r.hottest.time.is_empty());
 }

@@ -50,6 +50,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         max_step: 30.0,
         snapshot_times: vec![],
         traces: vec![],
+        trace_hottest: false,
     };
     let wall = WallModel::build(&deps, &ws)
         .unwrap()
@@ -65,6 +66,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         hot_threshold: 873.15,
         snapshot_times: vec![],
         traces: vec![],
+        trace_hottest: false,
         courant: 0.9,
     };
     let t = std::time::Instant::now();

@@ -197,6 +197,7 @@ fn voxel_column(dx: f64, t_end: f64) -> f64 {
         hot_threshold: 873.15,
         snapshot_times: vec![],
         traces: vec![],
+        trace_hottest: false,
         courant: 0.9,
     };
     let mut m = VoxelModel::new(&[], &settings).unwrap();

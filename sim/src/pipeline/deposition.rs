@@ -105,6 +105,7 @@ pub fn heat_model(
             max_step: MAX_COOLING_STEP_S,
             snapshot_times,
             traces,
+            trace_hottest: false,
         }),
         ThermalModel::Voxel => HeatModel::Voxel(VoxelSettings {
             material: material(m, t),
@@ -116,6 +117,7 @@ pub fn heat_model(
             hot_threshold: t.hot_threshold_k,
             snapshot_times,
             traces,
+            trace_hottest: false,
             courant: VOXEL_COURANT,
         }),
     }

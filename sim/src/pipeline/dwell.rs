@@ -630,6 +630,7 @@ mod tests {
             max_step: 30.0,
             snapshot_times: vec![],
             traces: vec![],
+            trace_hottest: false,
         };
         let mut run = WallRun::new(
             WallModel::build(&deps, &settings).unwrap(),

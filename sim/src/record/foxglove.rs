@@ -7,7 +7,8 @@
 //! path laid since the previous frame), `/wall/temperature` (`foxglove.PointCloud`, x, y, z and
 //! a float32 `temperature` in °C), `/tf` (`foxglove.FrameTransform` world → torch, the torch's z
 //! axis along the tool axis), `/torch` (SceneUpdate, the nozzle drawn in the torch frame),
-//! `/events` (`foxglove.Log`), `/plot/point` and `/plot/field` (plain JSON for plot panels).
+//! `/events` (`foxglove.Log`), `/plot/point`, `/plot/field` and `/plot/hottest` (the hottest
+//! laid metal every step) (plain JSON for plot panels).
 
 use super::{Level, Moment, Scene, Sink};
 use crate::error::{Error, Result};
@@ -23,7 +24,7 @@ use std::path::PathBuf;
 const M: f64 = 1e-3;
 
 /// Topic, schema name (empty: a plain JSON message of our own).
-const CHANNELS: [(&str, &str); 9] = [
+const CHANNELS: [(&str, &str); 10] = [
     ("/part", "foxglove.SceneUpdate"),
     ("/plan", "foxglove.SceneUpdate"),
     ("/deposited", "foxglove.SceneUpdate"),
@@ -33,6 +34,7 @@ const CHANNELS: [(&str, &str); 9] = [
     ("/events", "foxglove.Log"),
     ("/plot/point", "waamtwin.PointResult"),
     ("/plot/field", "waamtwin.FieldSummary"),
+    ("/plot/hottest", "waamtwin.Hottest"),
 ];
 
 #[derive(Default)]
@@ -293,6 +295,11 @@ impl Sink for McapSink {
                     &json!({"t_s": t, "laid": f.laid, "max_temperature_c": f.max_c()}),
                 )
             }
+            Moment::Hottest(k) => self.send(
+                "/plot/hottest",
+                t,
+                &json!({"t_s": t, "max_temperature_c": scene.hottest[k].1}),
+            ),
             Moment::Event(e) => {
                 let level = match e.level {
                     Level::Info => 2,
@@ -575,6 +582,7 @@ pub fn schema(name: &str) -> Value {
                 ("max_temperature_c", number()),
             ],
         ),
+        "waamtwin.Hottest" => object(name, &[("t_s", number()), ("max_temperature_c", number())]),
         _ => unreachable!("no schema named {name}"),
     };
     s["$schema"] = json!("https://json-schema.org/draft/2020-12/schema");

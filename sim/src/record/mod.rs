@@ -18,6 +18,8 @@ mod plots;
 #[cfg(feature = "recording")]
 mod report;
 #[cfg(feature = "recording")]
+mod rerun_layout;
+#[cfg(feature = "recording")]
 mod rerun_sink;
 mod scene;
 #[cfg(feature = "recording")]
@@ -26,7 +28,9 @@ mod vtkhdf;
 pub use colour::{Colour, temperature_colour};
 #[cfg(feature = "recording")]
 pub use plots::{Case, study_plots};
-pub use scene::{Event, Frame, History, Level, PointRecord, Probe, Run, Scene, probe};
+pub use scene::{
+    Event, Frame, HOTTEST_SAMPLES, History, Level, PointRecord, Probe, Run, Scene, probe,
+};
 
 use crate::error::Result;
 use crate::output::RunDir;
@@ -48,6 +52,8 @@ pub enum Moment<'a> {
     Point(usize),
     /// The temperature of the deposited wall at one time.
     Field(&'a Frame),
+    /// Sample k of the hottest laid metal ([`Scene::hottest`]).
+    Hottest(usize),
     Event(&'a Event),
 }
 
@@ -56,6 +62,7 @@ impl Moment<'_> {
         match self {
             Moment::Point(i) => scene.points[*i].t_s,
             Moment::Field(f) => f.t_s,
+            Moment::Hottest(k) => scene.hottest[*k].0,
             Moment::Event(e) => e.t_s,
         }
     }
@@ -110,6 +117,7 @@ pub fn record(scene: &Scene, mut sinks: Vec<Box<dyn Sink>>, dir: &mut RunDir) ->
         .filter(|i| i % stride == 0 || *i + 1 == scene.points.len())
         .map(Moment::Point)
         .chain(scene.frames.iter().map(Moment::Field))
+        .chain((0..scene.hottest.len()).map(Moment::Hottest))
         .chain(scene.events.iter().map(Moment::Event))
         .collect();
     // Stable: a point, then the field at the same time, then the events it caused.

@@ -8,6 +8,7 @@ use crate::error::{Error, Result};
 use crate::output::RunDir;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::sync::Once;
 
 const SIZE: (u32, u32) = (1000, 620);
@@ -472,6 +473,48 @@ pub fn study_plots(dir: &mut RunDir, cases: &[Case]) -> Result<()> {
     })
 }
 
+/// Highest temperature on the colour scale, °C: the colour map is white from 1500 °C.
+const SCALE_TOP_C: f64 = 1600.0;
+
+/// The colour legend of the wall's temperature ([`super::temperature_colour`]) as an RGB image
+/// of `size` pixels: the scale from ambient to [`SCALE_TOP_C`] with its anchors labelled, for
+/// viewers that colour a mesh without a legend of their own (rerun).
+pub fn colour_scale(ambient_c: f64, interpass_c: f64, size: (u32, u32)) -> Result<Vec<u8>> {
+    register_font();
+    let mut rgb = vec![255u8; (size.0 * size.1 * 3) as usize];
+    {
+        let area = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        scale(&area, ambient_c, interpass_c).map_err(fail)?;
+        area.present().map_err(fail)?;
+    }
+    Ok(rgb)
+}
+
+fn scale(area: &Area, ambient_c: f64, interpass_c: f64) -> Drawn {
+    area.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(area)
+        .caption("wall temperature, °C", (FONT, 18))
+        .margin(12)
+        .build_cartesian_2d(ambient_c..SCALE_TOP_C, -0.7..1.0)?;
+    let (w, _) = chart.plotting_area().dim_in_pixel();
+    let step = (SCALE_TOP_C - ambient_c) / w.max(1) as f64;
+    chart.draw_series((0..w).map(|k| {
+        let t = ambient_c + k as f64 * step;
+        let [r, g, b, _] = super::temperature_colour(t, ambient_c, interpass_c);
+        Rectangle::new([(t, 0.0), (t + step, 1.0)], RGBColor(r, g, b).filled())
+    }))?;
+    // The anchors a process engineer reads: ambient, the interpass limit, glow, red, melt.
+    let label = TextStyle::from((FONT, 14)).pos(Pos::new(HPos::Center, VPos::Top));
+    for t in [ambient_c, interpass_c, 600.0, 1200.0, 1500.0] {
+        chart.draw_series([PathElement::new(
+            [(t, -0.15), (t, 1.0)],
+            BLACK.stroke_width(1),
+        )])?;
+        chart.draw_series([Text::new(format!("{t:.0}"), (t, -0.2), label.clone())])?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -495,5 +538,23 @@ mod tests {
             )
             .is_ok()
         );
+    }
+
+    /// The legend carries the colour map: its bar runs from the ambient blue to the white of the
+    /// melt, with the interpass green between.
+    #[test]
+    fn colour_scale_shows_the_colour_map() {
+        let (w, h) = (640, 90);
+        let rgb = super::colour_scale(20.0, 200.0, (w, h)).unwrap();
+        assert_eq!(rgb.len(), (w * h * 3) as usize);
+        let count = |f: &dyn Fn(&[u8]) -> bool| rgb.chunks(3).filter(|p| f(p)).count();
+        // Just above ambient (the ambient column itself carries the anchor's line).
+        let blue = count(&|p| p[0] < 60 && p[1] < 90 && p[2] > 180);
+        assert!(blue > 50, "{blue} blue pixels");
+        let greenish = rgb
+            .chunks(3)
+            .filter(|p| p[1] > 150 && p[0] < 80 && p[2] < 120)
+            .count();
+        assert!(greenish > 50, "{greenish} green pixels");
     }
 }

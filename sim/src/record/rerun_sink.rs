@@ -3,25 +3,29 @@
 //!
 //! Entities: `world/part` (mesh), `world/plate` (box), `world/plan/spiral` and
 //! `world/plan/generators` (static line strips), `world/deposited/NNNN` (the path laid between two
-//! frames, so the deposit grows), `world/torch` (arrow from the torch to the deposit),
-//! `world/wall` (the deposited wall with per-vertex temperature colours, see
-//! [`super::temperature_colour`], and the raw values as `temperature_c`), `plots/*` (scalars),
-//! `events` (text log). The scenario is a recording property; the blueprint opens on the 3-D
-//! view beside the plots.
+//! frames, so the deposit grows), `world/torch` (arrow from
+//! the torch to the deposit), `world/wall` (the deposited wall with per-vertex temperature
+//! colours, see [`super::temperature_colour`]; logged whole at the first frame, so the viewer
+//! never sees vertices without triangles), `world/temperature` (the laid points in the same
+//! colours, each carrying its `temperature_c`: hover a point to read it), `legend` (the colour
+//! scale as an image), `plots/*` (one quantity per plot: preheat against the limit, the hottest
+//! laid metal every step, arc power, dwells), `events` (text log, one event per run of
+//! consecutive points). The scenario is a recording property. The layout ([`layout`]) opens at
+//! the end of the build on the wall coloured by temperature, the plan and the beads a tab away
+//! (they would hide the wall), beside the plots over the whole build.
 
+use super::rerun_layout::{Node, view};
 use super::{Moment, Scene, Sink, temperature_colour};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
 use crate::record::Level;
-use rerun::blueprint::{
-    Blueprint, BlueprintActivation, Horizontal, Spatial3DView, TextLogView, TimeSeriesView,
-    Vertical,
-};
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
 const TIMELINE: &str = "sim_time";
 /// Length of the torch arrow, mm.
 const TORCH_MM: f32 = 25.0;
+/// The colour scale's image, pixels.
+const LEGEND_PX: (u32, u32) = (640, 90);
 
 #[derive(Default)]
 pub struct RerunSink {
@@ -30,6 +34,8 @@ pub struct RerunSink {
     /// Path points already drawn as deposited.
     drawn: usize,
     segment: usize,
+    /// The wall mesh's vertices are logged (with the first frame).
+    wall_logged: bool,
 }
 
 fn fail(e: impl std::fmt::Display) -> Error {
@@ -59,9 +65,7 @@ impl Sink for RerunSink {
                 .with_component::<rerun::components::Text>("json", [scene.scenario.to_string()]),
         )
         .map_err(fail)?;
-        blueprint()
-            .send(&rec, BlueprintActivation::default())
-            .map_err(fail)?;
+        super::rerun_layout::send(&rec, &layout(), TIMELINE).map_err(fail)?;
         rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
             .map_err(fail)?;
         let part = &scene.part;
@@ -106,11 +110,13 @@ impl Sink for RerunSink {
             .with_radii([rerun::Radius::new_ui_points(0.5)]),
         )
         .map_err(fail)?;
+        let legend = super::plots::colour_scale(scene.ambient_c, scene.interpass_c, LEGEND_PX)?;
         rec.log_static(
-            "world/wall",
-            &rerun::Mesh3D::new(scene.points.iter().map(|p| f32x3(p.position_mm))),
+            "legend",
+            &rerun::Image::from_rgb24(legend, [LEGEND_PX.0, LEGEND_PX.1]),
         )
         .map_err(fail)?;
+        series_styles(&rec)?;
         self.rec = Some(rec);
         self.staged = Some(staged);
         Ok(())
@@ -137,9 +143,13 @@ impl Sink for RerunSink {
                     ("plots/preheat_c", p.preheat_c),
                     ("plots/interpass_max_c", scene.interpass_c),
                     ("plots/power_w", p.power_w),
-                    ("plots/dwell_s", p.dwell_s),
                 ] {
                     rec.log(name, &rerun::Scalars::single(v)).map_err(fail)?;
+                }
+                // A dwell is an event, not a level: a marker where there is one.
+                if p.dwell_s > 0.0 {
+                    rec.log("plots/dwell_s", &rerun::Scalars::single(p.dwell_s))
+                        .map_err(fail)?;
                 }
             }
             Moment::Field(f) => {
@@ -163,29 +173,44 @@ impl Sink for RerunSink {
                     .iter()
                     .filter(|t| t.iter().all(|&v| (v as usize) < f.laid))
                     .map(|t| rerun::TriangleIndices::from(*t));
-                let colours = f.temperature_c.iter().map(|&t| {
+                let colour = |t: f32| {
                     let [r, g, b, a] =
                         temperature_colour(t as f64, scene.ambient_c, scene.interpass_c);
                     rerun::Color::from_unmultiplied_rgba(r, g, b, a)
-                });
+                };
+                let colours = f.temperature_c.iter().map(|&t| colour(t));
+                let mesh = if self.wall_logged {
+                    rerun::Mesh3D::update_fields()
+                } else {
+                    self.wall_logged = true;
+                    rerun::Mesh3D::new(scene.points.iter().map(|p| f32x3(p.position_mm)))
+                };
                 rec.log(
                     "world/wall",
-                    &rerun::Mesh3D::update_fields()
-                        .with_triangle_indices(tris)
-                        .with_vertex_colors(colours),
+                    &mesh.with_triangle_indices(tris).with_vertex_colors(colours),
+                )
+                .map_err(fail)?;
+                let laid = &f.temperature_c[..end];
+                rec.log(
+                    "world/temperature",
+                    &rerun::Points3D::new(scene.points[..end].iter().map(|p| f32x3(p.position_mm)))
+                        .with_colors(laid.iter().map(|&t| colour(t)))
+                        .with_radii([rerun::Radius::new_ui_points(2.0)]),
                 )
                 .map_err(fail)?;
                 rec.log(
-                    "world/wall",
+                    "world/temperature",
                     &rerun::AnyValues::default().with_component::<rerun::components::Scalar>(
                         "temperature_c",
-                        f.temperature_c.iter().map(|&t| t as f64),
+                        laid.iter().map(|&t| t as f64),
                     ),
                 )
                 .map_err(fail)?;
+            }
+            Moment::Hottest(k) => {
                 rec.log(
                     "plots/max_temperature_c",
-                    &rerun::Scalars::single(f.max_c() as f64),
+                    &rerun::Scalars::single(scene.hottest[k].1),
                 )
                 .map_err(fail)?;
             }
@@ -216,22 +241,78 @@ impl Sink for RerunSink {
     }
 }
 
-/// The 3-D view on the left, the plots and the event log on the right.
-fn blueprint() -> Blueprint {
-    Blueprint::new(Horizontal::new([
-        Spatial3DView::new("part").with_origin("world").into(),
-        Vertical::new([
-            TimeSeriesView::new("preheat °C")
-                .with_contents(["plots/preheat_c", "plots/interpass_max_c"])
-                .into(),
-            TimeSeriesView::new("max wall temperature °C")
-                .with_contents(["plots/max_temperature_c"])
-                .into(),
-            TimeSeriesView::new("arc power W, dwell s")
-                .with_contents(["plots/power_w", "plots/dwell_s"])
-                .into(),
-            TextLogView::new("events").with_origin("events").into(),
-        ])
-        .into(),
-    ]))
+/// Names and colours of the plotted series, so each plot reads without a legend of its own.
+fn series_styles(rec: &RecordingStream) -> Result<()> {
+    let line = |name: &str, [r, g, b]: [u8; 3]| {
+        rerun::SeriesLines::new()
+            .with_names([name])
+            .with_colors([rerun::Color::from_rgb(r, g, b)])
+    };
+    for (path, style) in [
+        ("plots/preheat_c", line("preheat, °C", [40, 90, 220])),
+        (
+            "plots/interpass_max_c",
+            line("interpass limit, °C", [220, 40, 40]),
+        ),
+        (
+            "plots/max_temperature_c",
+            line("hottest laid metal, °C", [230, 120, 20]),
+        ),
+        ("plots/power_w", line("arc power, W", [90, 90, 90])),
+    ] {
+        rec.log_static(path, &style).map_err(fail)?;
+    }
+    rec.log_static(
+        "plots/dwell_s",
+        &rerun::SeriesPoints::new()
+            .with_names(["dwell before the point, s"])
+            .with_colors([rerun::Color::from_rgb(40, 150, 90)])
+            .with_marker_sizes([3.0]),
+    )
+    .map_err(fail)
+}
+
+/// On the left the 3-D view above the colour scale: the wall coloured by temperature on
+/// opening, the planned spiral, generators and laid beads in a second tab. On the right one
+/// plot per quantity over the whole build, then the event log.
+fn layout() -> Node {
+    let plot = |name: &str, contents: &[&str]| (1.0, view("TimeSeries", name, "/", contents));
+    Node::Row(vec![
+        (
+            3.0,
+            Node::Column(vec![
+                (
+                    6.0,
+                    Node::Tabs(vec![
+                        view(
+                            "3D",
+                            "wall temperature",
+                            "world",
+                            &["world/**", "- world/plan/**", "- world/deposited/**"],
+                        ),
+                        view(
+                            "3D",
+                            "plan and beads",
+                            "world",
+                            &["world/**", "- world/wall", "- world/temperature"],
+                        ),
+                    ]),
+                ),
+                (1.0, view("2D", "colour scale", "legend", &["legend"])),
+            ]),
+        ),
+        (
+            2.0,
+            Node::Column(vec![
+                plot(
+                    "preheat against the interpass limit, °C",
+                    &["plots/preheat_c", "plots/interpass_max_c"],
+                ),
+                plot("hottest laid metal, °C", &["plots/max_temperature_c"]),
+                plot("arc power, W", &["plots/power_w"]),
+                plot("dwells, s", &["plots/dwell_s"]),
+                (1.2, view("TextLog", "events", "events", &["events"])),
+            ]),
+        ),
+    ])
 }

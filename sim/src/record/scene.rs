@@ -109,6 +109,9 @@ pub struct Scene {
     pub frames: Vec<Frame>,
     /// Step-by-step histories of a few points, where the run traced them.
     pub histories: Vec<History>,
+    /// The hottest laid metal (s, °C) every step, or the hottest of each run of steps where
+    /// there are more than [`HOTTEST_SAMPLES`].
+    pub hottest: Vec<(f64, f64)>,
     pub events: Vec<Event>,
     pub probe: Option<Probe>,
     pub interpass_c: f64,
@@ -184,6 +187,7 @@ impl Scene {
                     temperature_c: t.temperature.iter().map(|&k| k - C).collect(),
                 })
                 .collect(),
+            hottest: hottest(&sim.result.hottest),
             probe,
             interpass_c: b.params.dwell.interpass_max_k - C,
             ambient_c: b.params.thermal.ambient_k - C,
@@ -219,6 +223,23 @@ pub fn wall(n_points: usize, n_generators: usize) -> Vec<[u32; 3]> {
         .flat_map(|i| {
             let (a, b, c, d) = ((i - n) as u32, (i - n + 1) as u32, (i + 1) as u32, i as u32);
             [[a, b, c], [a, c, d]]
+        })
+        .collect()
+}
+
+/// Most samples of the hottest laid metal kept for the recordings.
+pub const HOTTEST_SAMPLES: usize = 20_000;
+
+/// The run's hottest-metal series in °C, each run of `stride` steps down to its hottest step,
+/// so that no pass's peak is lost when a long build is thinned.
+fn hottest(h: &thermal::run::Hottest) -> Vec<(f64, f64)> {
+    let stride = h.time.len().div_ceil(HOTTEST_SAMPLES).max(1);
+    h.time
+        .chunks(stride)
+        .zip(h.temperature.chunks(stride))
+        .map(|(t, k)| {
+            let top = (0..k.len()).fold(0, |a, j| if k[j] > k[a] { j } else { a });
+            (t[top], k[top] - C)
         })
         .collect()
 }
@@ -281,7 +302,6 @@ fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec
             ),
         });
     }
-    let mut last_risky_layer = None;
     for (i, p) in points.iter().enumerate() {
         if p.dwell_s > 0.0 {
             ev.push(Event {
@@ -293,42 +313,53 @@ fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec
                 ),
             });
         }
-        if let Some(reason) = p.risk
-            && last_risky_layer != Some(p.layer)
-        {
-            last_risky_layer = Some(p.layer);
-            ev.push(Event {
-                t_s: p.t_s,
-                level: Level::Warning,
-                text: format!(
-                    "overheating detected ({reason}): point {i}, layer {}, preheat {:.0} °C",
-                    p.layer, p.preheat_c
-                ),
-            });
-        }
     }
-    // One event per run of consecutive colliding points, not one per point.
-    for (a, b) in runs(&pl.collisions) {
-        let where_ = if a == b {
-            format!("point {a} (layer {})", points[a].layer)
-        } else {
-            format!(
-                "points {a}–{b} (layers {}–{}, {} points)",
-                points[a].layer,
-                points[b].layer,
-                b - a + 1
-            )
-        };
+    // One event per run of consecutive points, with its range, not one per point.
+    let risky: Vec<usize> = (0..points.len())
+        .filter(|&i| points[i].risk.is_some())
+        .collect();
+    for (a, z) in runs(&risky) {
+        let run = &points[a..=z];
+        let mut reasons: Vec<&str> = run.iter().filter_map(|p| p.risk).collect();
+        reasons.sort_unstable();
+        reasons.dedup();
+        let hottest = run.iter().map(|p| p.preheat_c).fold(f64::NAN, f64::max);
         ev.push(Event {
             t_s: points[a].t_s,
             level: Level::Warning,
             text: format!(
-                "nozzle collision at {where_}: the nozzle meets deposited metal (unresolved)"
+                "overheating detected ({}) at {}: preheat up to {hottest:.0} °C",
+                reasons.join(", "),
+                stretch(points, a, z)
+            ),
+        });
+    }
+    for (a, z) in runs(&pl.collisions) {
+        ev.push(Event {
+            t_s: points[a].t_s,
+            level: Level::Warning,
+            text: format!(
+                "nozzle collision at {}: the nozzle meets deposited metal (unresolved)",
+                stretch(points, a, z)
             ),
         });
     }
     ev.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
     ev
+}
+
+/// "point 7 (layer 2)" or "points 7–9 (layers 2–3, 3 points)".
+fn stretch(points: &[PointRecord], a: usize, z: usize) -> String {
+    if a == z {
+        format!("point {a} (layer {})", points[a].layer)
+    } else {
+        format!(
+            "points {a}–{z} (layers {}–{}, {} points)",
+            points[a].layer,
+            points[z].layer,
+            z - a + 1
+        )
+    }
 }
 
 /// "3–5, 9" from ascending numbers.

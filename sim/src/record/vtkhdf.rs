@@ -7,6 +7,11 @@
 //! `temperature_c` (NaN where not yet laid) and `laid` (1 once laid, for ParaView's Threshold).
 //! Static point data: `preheat_c`, `deposit_mm`, `layer`. Outside `/VTKHDF`, which VTK ignores,
 //! `/path` holds the per-point results as plain datasets, each with a `unit` attribute.
+//!
+//! `fields.xdmf` beside it describes the same datasets as an XDMF 2 temporal collection, for
+//! the readers that predate VTKHDF 2.0 (ParaView 5.11, Debian 12's, reads only the first step
+//! of the 2.0 file): each step a grid whose geometry and triangles are the shared datasets and
+//! whose temperature is a hyperslab of the per-step array. No data is written twice.
 
 use super::{Moment, Scene, Sink};
 use crate::error::{Error, Result};
@@ -40,6 +45,7 @@ impl Sink for VtkHdfSink {
     fn finish(self: Box<Self>, scene: &Scene, dir: &mut RunDir) -> Result<()> {
         let bytes = fields_h5(scene)?;
         dir.write("fields.h5", &bytes)?;
+        dir.write("fields.xdmf", fields_xdmf(scene, "fields.h5").as_bytes())?;
         Ok(())
     }
 }
@@ -149,4 +155,69 @@ pub fn fields_h5(scene: &Scene) -> Result<Vec<u8>> {
     file.add_group(path.finish());
     file.set_attr("title", AttrValue::AsciiString(scene.title.clone()));
     file.finish().map_err(fail)
+}
+
+/// The XDMF 2 description of `h5` (written by [`fields_h5`] from the same scene).
+pub fn fields_xdmf(scene: &Scene, h5: &str) -> String {
+    use std::fmt::Write;
+    let np = scene.points.len();
+    let nc = scene.wall.len();
+    let times: Vec<f64> = if scene.frames.is_empty() {
+        vec![scene.build_s]
+    } else {
+        scene.frames.iter().map(|f| f.t_s).collect()
+    };
+    let steps = times.len();
+    let item = |dims: &str, kind: &str, precision: usize, path: &str| {
+        format!(
+            "<DataItem Dimensions=\"{dims}\" NumberType=\"{kind}\" Precision=\"{precision}\" \
+             Format=\"HDF\">{h5}:/VTKHDF/{path}</DataItem>"
+        )
+    };
+    let per_step = |name: &str, kind: &str, precision: usize, k: usize| {
+        format!(
+            "<Attribute Name=\"{name}\" AttributeType=\"Scalar\" Center=\"Node\">\
+             <DataItem ItemType=\"HyperSlab\" Dimensions=\"{np}\" Type=\"HyperSlab\">\
+             <DataItem Dimensions=\"3 1\" Format=\"XML\">{} 1 {np}</DataItem>{}</DataItem></Attribute>",
+            k * np,
+            item(
+                &(steps * np).to_string(),
+                kind,
+                precision,
+                &format!("PointData/{name}")
+            )
+        )
+    };
+    let fixed = |name: &str, kind: &str, precision: usize| {
+        format!(
+            "<Attribute Name=\"{name}\" AttributeType=\"Scalar\" Center=\"Node\">{}</Attribute>",
+            item(
+                &np.to_string(),
+                kind,
+                precision,
+                &format!("PointData/{name}")
+            )
+        )
+    };
+    let mut x = String::from(
+        "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"2.0\">\n<Domain>\n\
+         <Grid Name=\"wall\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
+    );
+    for (k, t) in times.iter().enumerate() {
+        let _ = writeln!(
+            x,
+            "<Grid Name=\"step {k}\" GridType=\"Uniform\"><Time Value=\"{t}\"/>\
+             <Topology TopologyType=\"Triangle\" NumberOfElements=\"{nc}\">{}</Topology>\
+             <Geometry GeometryType=\"XYZ\">{}</Geometry>{}{}{}{}{}</Grid>",
+            item(&(3 * nc).to_string(), "Int", 8, "Connectivity"),
+            item(&format!("{np} 3"), "Float", 8, "Points"),
+            per_step("temperature_c", "Float", 4, k),
+            per_step("laid", "UChar", 1, k),
+            fixed("preheat_c", "Float", 4),
+            fixed("deposit_mm", "Float", 4),
+            fixed("layer", "Int", 8),
+        );
+    }
+    x.push_str("</Grid>\n</Domain>\n</Xdmf>\n");
+    x
 }

@@ -13,7 +13,8 @@ use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Ledger, SIGMA, Surroundings};
 use crate::run::{
-    Cells, CoolingSteps, HeatRun, Plate, PointResult, RunResult, Snapshot, Support, Trace, replay,
+    Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, RunResult, Snapshot, Support, Trace,
+    replay,
 };
 use crate::schedule::{Deposit, read_fractions, validate};
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
@@ -44,6 +45,9 @@ pub struct VoxelSettings {
     /// Deposits whose metal's temperature is kept at every step from when it is laid: a
     /// history finer than the snapshots, which shows every pass of the torch.
     pub traces: Vec<usize>,
+    /// Keep the hottest laid metal at every step ([`crate::run::Hottest`]); off for the dwell
+    /// planner's runs, whose checkpoints it would only make longer.
+    pub trace_hottest: bool,
     /// Stability margin on the explicit step (≤ 1).
     pub courant: f64,
 }
@@ -604,17 +608,21 @@ impl VoxelModel {
     }
 
     /// Peak and time above the threshold of the metal of deposits 0..laid, after a step of dt.
-    fn observe(&self, laid: usize, dt: f64, points: &mut [PointResult]) {
+    /// Returns the hottest laid metal's temperature (NaN before any is laid).
+    fn observe(&self, laid: usize, dt: f64, points: &mut [PointResult]) -> f64 {
+        let mut hottest = f64::NAN;
         for (p, voxels) in points[..laid].iter_mut().zip(&self.laid) {
             if voxels.is_empty() {
                 continue;
             }
             let t = self.mean_t(voxels);
+            hottest = hottest.max(t);
             p.peak = p.peak.max(t);
             if t > self.settings.hot_threshold {
                 p.time_above += dt;
             }
         }
+        hottest
     }
 
     /// Keep the field at the snapshot times reached by `now`, deposits 0..laid laid: per
@@ -677,6 +685,7 @@ pub struct VoxelRun {
     points: Vec<PointResult>,
     snapshots: Vec<Snapshot>,
     traces: Vec<Trace>,
+    hottest: Hottest,
     underpowered: usize,
     now: f64,
     laid: usize,
@@ -730,6 +739,7 @@ impl VoxelRun {
                 .iter()
                 .map(|&d| Trace::new(d))
                 .collect(),
+            hottest: Hottest::default(),
             underpowered: 0,
             laid: 0,
             next_probe: 0,
@@ -749,7 +759,9 @@ impl VoxelRun {
         self.model.step(dt, source);
         self.now += dt;
         let laid = self.laid + usize::from(source_on);
-        self.model.observe(laid, dt, &mut self.points);
+        let hottest = self.model.observe(laid, dt, &mut self.points);
+        let on = self.model.settings.trace_hottest;
+        self.hottest.push(on, self.now, hottest);
         self.model.keep(laid, self.now, &mut self.snapshots);
         for tr in &mut self.traces {
             if tr.deposit < laid {
@@ -903,6 +915,7 @@ impl HeatRun for VoxelRun {
             support,
             snapshots: self.snapshots,
             traces: self.traces,
+            hottest: self.hottest,
             ledger: m.ledger,
             stored,
             balance_error: if e > 0.0 {
@@ -1000,6 +1013,7 @@ mod tests {
             hot_threshold: 873.15,
             snapshot_times: vec![],
             traces: vec![],
+            trace_hottest: false,
             courant: 0.9,
         };
         (deps, settings)
