@@ -47,6 +47,13 @@ pub enum Command {
         #[arg(short = 'o', long = "out")]
         out: PathBuf,
     },
+    /// Replay a toolpath the machine ran on the voxel model and compare with its probes:
+    /// probes.csv, replay.json, probes.png.
+    Replay {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+    },
     /// Plan, simulate and plan the cooling dwells: dwells.csv, dwell.json, and the dwelled run.
     Dwell {
         scenario: PathBuf,

@@ -9,6 +9,7 @@
 pub mod cli;
 pub mod commands;
 pub mod error;
+pub mod measured;
 pub mod output;
 pub mod part;
 pub mod pipeline;
@@ -47,6 +48,10 @@ pub fn run(cli: cli::Cli) -> Result<()> {
         }
         Command::Simulate { scenario, out } => {
             println!("{}", commands::simulate::run(&scenario, &out)?);
+            Ok(())
+        }
+        Command::Replay { scenario, out } => {
+            println!("{}", commands::replay::run(&scenario, &out)?);
             Ok(())
         }
         Command::Dwell {

@@ -7,6 +7,7 @@ mod determinism;
 mod dwell;
 mod inspect;
 mod outputs;
+mod replay;
 mod scenarios;
 mod study;
 mod thermal;

@@ -47,6 +47,8 @@ fn main() {
         traces: vec![],
         trace_hottest: false,
         courant: 0.9,
+        probes: vec![],
+        probe_every: 0.0,
     };
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()

@@ -80,6 +80,37 @@ impl Material {
         )
     }
 
+    /// Properties from measured tables: c_p(T) in J/(kg K) and k(T) in W/(m K), each as
+    /// (T in K, value) rows in ascending temperature, interpolated linearly and held at the end
+    /// values outside them; latent heat released linearly between solidus and liquidus.
+    /// Fails with what is wrong with a table.
+    pub fn from_tables(
+        density: f64,
+        cp: &[(f64, f64)],
+        k: &[(f64, f64)],
+        solidus: f64,
+        liquidus: f64,
+        latent: f64,
+    ) -> Result<Material, String> {
+        for (name, table) in [("specific heat", cp), ("conductivity", k)] {
+            check_table(name, table)?;
+        }
+        if !(density > 0.0 && solidus > 0.0 && liquidus > solidus && latent >= 0.0) {
+            return Err(format!(
+                "density {density} kg/m³, solidus {solidus} K, liquidus {liquidus} K, latent \
+                 {latent} J/kg; expected positive, liquidus above solidus"
+            ));
+        }
+        Ok(Material::tabulate(
+            density,
+            |t| interpolate(cp, t),
+            |t| interpolate(k, t),
+            solidus,
+            liquidus,
+            latent,
+        ))
+    }
+
     fn tabulate(
         density: f64,
         cp: impl Fn(f64) -> f64,
@@ -203,6 +234,49 @@ fn eurocode_k(t: f64) -> f64 {
     if c < 800.0 { 54.0 - 3.33e-2 * c } else { 27.3 }
 }
 
+/// A property table is usable: rows in ascending temperature, finite positive values.
+fn check_table(name: &str, table: &[(f64, f64)]) -> Result<(), String> {
+    if table.is_empty() {
+        return Err(format!("the {name} table is empty"));
+    }
+    if let Some(row) = table
+        .iter()
+        .position(|&(t, v)| !(t.is_finite() && t >= 0.0 && v.is_finite() && v > 0.0))
+    {
+        return Err(format!(
+            "the {name} table's row {} reads T = {} K, {}; expected a temperature ≥ 0 K and a \
+             positive value",
+            row + 1,
+            table[row].0,
+            table[row].1
+        ));
+    }
+    for (row, w) in table.windows(2).enumerate() {
+        if w[1].0 <= w[0].0 {
+            return Err(format!(
+                "the {name} table's row {} has T = {} K after {} K; expected ascending temperatures",
+                row + 2,
+                w[1].0,
+                w[0].0
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Linear between rows, the end values outside.
+fn interpolate(table: &[(f64, f64)], t: f64) -> f64 {
+    let j = table.partition_point(|r| r.0 < t);
+    match j {
+        0 => table[0].1,
+        j if j == table.len() => table[j - 1].1,
+        j => {
+            let (a, b) = (table[j - 1], table[j]);
+            a.1 + (t - a.0) / (b.0 - a.0) * (b.1 - a.1)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,5 +314,22 @@ mod tests {
         let c = Material::constant(7800.0, 480.0, 52.416, 1700.0, 0.0);
         assert!((c.enthalpy(1000.0) - c.enthalpy(500.0) - 480.0 * 500.0).abs() < 1e-6);
         assert!((c.diffusivity(500.0) - 14e-6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tables_interpolate_and_hold_their_ends() {
+        let cp = [(300.0, 400.0), (500.0, 600.0)];
+        let k = [(300.0, 10.0)];
+        let m = super::Material::from_tables(8000.0, &cp, &k, 1500.0, 1600.0, 2e5).unwrap();
+        assert!((m.specific_heat(400.0) - 500.0).abs() < 1e-9);
+        assert!((m.specific_heat(100.0) - 400.0).abs() < 1e-9);
+        assert!((m.specific_heat(1000.0) - 600.0).abs() < 1e-9);
+        assert!((m.conductivity(900.0) - 10.0).abs() < 1e-9);
+        let unsorted = [(500.0, 1.0), (300.0, 1.0)];
+        let e = super::Material::from_tables(8000.0, &unsorted, &k, 1500.0, 1600.0, 0.0);
+        assert!(e.unwrap_err().contains("row 2 has T = 300 K"));
+        let negative = [(300.0, -1.0)];
+        let e = super::Material::from_tables(8000.0, &cp, &negative, 1500.0, 1600.0, 0.0);
+        assert!(e.unwrap_err().contains("conductivity table's row 1"));
     }
 }

@@ -104,6 +104,29 @@ impl Hottest {
     }
 }
 
+/// A point whose temperature the run keeps (a thermocouple, a spot an IR camera reads): the
+/// temperature of the model's cell nearest to it, within one cell, once there is one; NaN
+/// before (metal not yet laid there).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProbeTrace {
+    /// m.
+    pub position: [f64; 3],
+    /// s.
+    pub time: Vec<f64>,
+    /// K.
+    pub temperature: Vec<f64>,
+}
+
+impl ProbeTrace {
+    pub fn new(position: [f64; 3]) -> ProbeTrace {
+        ProbeTrace {
+            position,
+            time: Vec::new(),
+            temperature: Vec::new(),
+        }
+    }
+}
+
 /// How a model discretised the part, and what it cost.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Cells {
@@ -132,6 +155,8 @@ pub struct RunResult {
     pub traces: Vec<Trace>,
     /// The hottest laid metal, step by step (empty unless the settings ask for it).
     pub hottest: Hottest,
+    /// The settings' probes, sampled as often as they ask (voxel model only).
+    pub probes: Vec<ProbeTrace>,
     pub ledger: Ledger,
     /// Energy held by the part at the end above ambient, J.
     pub stored: f64,
@@ -242,6 +267,16 @@ impl HeatModel {
         match self {
             HeatModel::ThinWall(s) => s.traces = deposits,
             HeatModel::Voxel(s) => s.traces = deposits,
+        }
+    }
+
+    /// Points whose temperature the run keeps, at most every `every` seconds
+    /// ([`RunResult::probes`]). The voxel model keeps them; the thin wall, whose nodes are the
+    /// bead's and not points in space, keeps none.
+    pub fn set_probes(&mut self, points: Vec<[f64; 3]>, every: f64) {
+        if let HeatModel::Voxel(s) = self {
+            s.probes = points;
+            s.probe_every = every;
         }
     }
 

@@ -20,11 +20,24 @@ pub struct Deposit {
     pub axis: [f64; 3],
     /// The deposit this one is laid on, or `None` for the substrate plate.
     pub support: Option<usize>,
+    /// Where its bead segment begins when it does not continue the previous deposit (a new
+    /// track after a travel move with the arc off); `None` on a continuous path.
+    pub start: Option<[f64; 3]>,
 }
 
 impl Deposit {
     pub fn arc_start(&self) -> f64 {
         self.time - self.arc_time
+    }
+}
+
+/// Where deposit i's bead segment begins: its own `start`, else the previous deposit's end
+/// (the first deposit of a path is a segment of no length).
+pub fn segment_start(deps: &[Deposit], i: usize) -> [f64; 3] {
+    match (deps[i].start, i) {
+        (Some(p), _) => p,
+        (None, 0) => deps[0].position,
+        (None, _) => deps[i - 1].position,
     }
 }
 
@@ -102,11 +115,12 @@ pub fn read_fractions(deps: &[Deposit], lead: f64) -> Vec<Option<(usize, f64)>> 
         .collect()
 }
 
-/// Arc length of the path at each deposit, m.
+/// Length of deposited path at each deposit, m.
 fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
     let mut s = vec![0.0; deps.len()];
     for i in 1..deps.len() {
-        s[i] = s[i - 1] + distance(deps[i].position, deps[i - 1].position);
+        // Travel with the arc off is not deposited path: a track starts where its bead does.
+        s[i] = s[i - 1] + distance(deps[i].position, segment_start(deps, i));
     }
     s
 }
@@ -145,6 +159,7 @@ pub fn helix(
                 height,
                 axis: [0.0, 0.0, 1.0],
                 support: (i >= n).then(|| i - n),
+                start: None,
             }
         })
         .collect()

@@ -125,6 +125,16 @@ pub struct WallModel {
 impl WallModel {
     pub fn build(deps: &[Deposit], s: &WallSettings) -> Result<WallModel, ThermalError> {
         validate(deps)?;
+        // One continuous bead is what the wall's nodes are: a path that breaks off (tracks
+        // with travel between them) is the voxel model's.
+        if let Some(i) = deps.iter().position(|d| d.start.is_some()) {
+            return Err(ThermalError::Schedule {
+                deposit: i,
+                reason: "starts a new track after a travel move; the thin wall models one \
+                         continuous bead (use the voxel model)"
+                    .into(),
+            });
+        }
         let l = layout(deps, s.min_node);
         let nw = l.first.len();
         let rho = s.material.density;
@@ -585,6 +595,7 @@ impl HeatRun for WallRun {
             snapshots: self.snapshots,
             traces: self.traces,
             hottest: self.hottest,
+            probes: Vec::new(),
             ledger: net.ledger,
             stored: net.stored(),
             balance_error: net.balance_error(),

@@ -54,6 +54,8 @@ fn models(material: Material) -> [HeatModel; 2] {
             traces: vec![],
             trace_hottest: false,
             courant: 0.9,
+            probes: vec![],
+            probe_every: 0.0,
         }),
     ]
 }
@@ -278,4 +280,28 @@ fn the_hottest_metal_bounds_every_trace_and_reaches_the_highest_peak() {
     // Off unless asked for: the dwell planner's checkpoints stay small.
     let r = models(Material::g3si())[0].simulate(&deps).unwrap();
     assert!(r.hottest.time.is_empty());
+}
+
+/// A probe reads nothing (NaN) until metal lies within a cell of it, then the temperature of
+/// the cell it lies in, as often as asked; a probe off the part never reads.
+#[test]
+fn a_probe_reads_once_metal_is_there() {
+    let deps = schedule();
+    let mut model = models(Material::g3si())[1].clone();
+    let at = deps[5].position;
+    model.set_probes(vec![at, [1.0, 1.0, 1.0]], 0.5);
+    let r = model.simulate(&deps).unwrap();
+    let (here, away) = (&r.probes[0], &r.probes[1]);
+    assert!(away.temperature.iter().all(|t| t.is_nan()));
+    assert!(here.time.windows(2).all(|w| w[1] - w[0] >= 0.5 - 1e-9));
+    for (t, k) in here.time.iter().zip(&here.temperature) {
+        if *t < deps[4].arc_start() {
+            assert!(k.is_nan(), "{k} K at {t} s, before any metal there");
+        }
+        if *t > deps[5].time + 0.5 {
+            assert!(k.is_finite() && *k > 293.0, "{k} K at {t} s");
+        }
+    }
+    let hottest = here.temperature.iter().copied().fold(f64::NAN, f64::max);
+    assert!(hottest > 1000.0, "{hottest} K: the arc passes over it");
 }

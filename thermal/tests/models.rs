@@ -68,6 +68,8 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         traces: vec![],
         trace_hottest: false,
         courant: 0.9,
+        probes: vec![],
+        probe_every: 0.0,
     };
     let t = std::time::Instant::now();
     let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps).unwrap();

@@ -199,6 +199,8 @@ fn voxel_column(dx: f64, t_end: f64) -> f64 {
         traces: vec![],
         trace_hottest: false,
         courant: 0.9,
+        probes: vec![],
+        probe_every: 0.0,
     };
     let mut m = VoxelModel::new(&[], &settings).unwrap();
     let cells = (0.01 / dx).round() as usize;

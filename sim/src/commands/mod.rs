@@ -5,5 +5,6 @@ pub mod dwell;
 pub mod geodesic;
 pub mod inspect;
 pub mod plan;
+pub mod replay;
 pub mod simulate;
 pub mod study;

@@ -49,6 +49,7 @@ pub fn schedule(p: &Process, pl: &Plan, b: &Beads, dwell_s: &[f64]) -> Vec<Depos
                 axis: [q.tool.x, q.tool.y, q.tool.z],
                 // The spiral lays point i on the same generator one revolution earlier.
                 support: (q.layer > 0 && i >= n_gen).then(|| i - n_gen),
+                start: None,
             }
         })
         .collect()
@@ -80,6 +81,17 @@ pub fn heat_model(
     snapshot_times: Vec<f64>,
     traces: Vec<usize>,
 ) -> HeatModel {
+    heat_model_of(material(m, t), t, deposits, snapshot_times, traces)
+}
+
+/// [`heat_model`] with the heat models' own material (tables read from files, say).
+pub fn heat_model_of(
+    material: thermal::material::Material,
+    t: &ThermalSettings,
+    deposits: &[Deposit],
+    snapshot_times: Vec<f64>,
+    traces: Vec<usize>,
+) -> HeatModel {
     let surroundings = Surroundings {
         ambient_k: t.ambient_k,
         convection_w_m2k: t.convection_w_m2k,
@@ -94,7 +106,7 @@ pub fn heat_model(
     };
     match t.model {
         ThermalModel::Fe => HeatModel::ThinWall(WallSettings {
-            material: material(m, t),
+            material,
             surroundings,
             plate,
             min_node: t.node_m,
@@ -108,7 +120,7 @@ pub fn heat_model(
             trace_hottest: false,
         }),
         ThermalModel::Voxel => HeatModel::Voxel(VoxelSettings {
-            material: material(m, t),
+            material,
             surroundings,
             plate,
             size: t.voxel_m,
@@ -119,6 +131,8 @@ pub fn heat_model(
             traces,
             trace_hottest: false,
             courant: VOXEL_COURANT,
+            probes: vec![],
+            probe_every: 0.0,
         }),
     }
 }

@@ -37,6 +37,7 @@ pub mod beads;
 pub mod deposition;
 pub mod dwell;
 pub mod params;
+pub mod replay;
 pub mod risk;
 
 pub use params::Params;

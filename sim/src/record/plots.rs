@@ -6,6 +6,7 @@
 use super::{Moment, Scene, Sink};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
+use crate::pipeline::replay::Sample;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -512,6 +513,77 @@ fn scale(area: &Area, ambient_c: f64, interpass_c: f64) -> Drawn {
         )])?;
         chart.draw_series([Text::new(format!("{t:.0}"), (t, -0.2), label.clone())])?;
     }
+    Ok(())
+}
+
+/// Measured and predicted temperature against time at up to six probes spread over those
+/// given (first and last included), one panel each: what a person compares first. A judged
+/// `window` (s) is shaded.
+pub fn probe_plot(
+    dir: &mut RunDir,
+    name: &str,
+    title: &str,
+    series: &[(&str, &[Sample])],
+    window: Option<[f64; 2]>,
+) -> Result<()> {
+    let shown: Vec<usize> = match series.len() {
+        0 => return Ok(()),
+        n if n <= 6 => (0..n).collect(),
+        n => (0..6).map(|k| k * (n - 1) / 5).collect(),
+    };
+    draw(dir, name, |area| {
+        let panels = area.split_evenly((3, 2));
+        for (panel, &k) in panels.iter().zip(&shown) {
+            probe_panel(panel, title, series[k], window)?;
+        }
+        Ok(())
+    })
+}
+
+fn probe_panel(
+    area: &Area,
+    title: &str,
+    (name, s): (&str, &[Sample]),
+    window: Option<[f64; 2]>,
+) -> Drawn {
+    let (t0, t1) = span(s.iter().map(|x| x.0));
+    let (lo, hi) = span(s.iter().flat_map(|x| [x.1, x.2]));
+    let mut chart = ChartBuilder::on(area)
+        .caption(format!("{title}: {name}"), (FONT, 15))
+        .margin(6)
+        .x_label_area_size(30)
+        .y_label_area_size(48)
+        .build_cartesian_2d(t0..t1, lo..hi)?;
+    // The judged window shaded, under the grid and the curves.
+    if let Some(w) = window {
+        chart.draw_series(std::iter::once(Rectangle::new(
+            [(w[0].max(t0), lo), (w[1].min(t1), hi)],
+            RGBColor(235, 240, 250).filled(),
+        )))?;
+    }
+    chart
+        .configure_mesh()
+        .x_desc("build time, s")
+        .y_desc("°C")
+        .x_label_formatter(&whole)
+        .y_label_formatter(&whole)
+        .label_style((FONT, 12))
+        .draw()?;
+    chart
+        .draw_series(LineSeries::new(s.iter().map(|x| (x.0, x.1)), BLACK))?
+        .label("measured")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], BLACK));
+    let orange = RGBColor(230, 120, 20);
+    chart
+        .draw_series(LineSeries::new(s.iter().map(|x| (x.0, x.2)), orange))?
+        .label("predicted")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 14, y)], orange));
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font((FONT, 12))
+        .draw()?;
     Ok(())
 }
 

@@ -3,6 +3,7 @@
 //! the models. Every key and default is documented in `scenarios/README.md`.
 
 mod raw;
+pub mod replay;
 
 pub use raw::*;
 
@@ -80,21 +81,8 @@ impl Scenario {
     }
 
     fn parse_with(text: &str, file: &str, base: &Path, lines: bool) -> Result<Scenario> {
-        let raw: RawScenario = toml::from_str(text).map_err(|e| {
-            // A missing field's span is the whole table: no line says more than the message.
-            let line = e
-                .span()
-                .filter(|_| lines && !e.message().starts_with("missing field"))
-                .map(|s| line_of(text, s.start));
-            let at = match line {
-                Some(l) => format!(
-                    " line {l} ({})",
-                    text.lines().nth(l - 1).unwrap_or("").trim()
-                ),
-                None => String::new(),
-            };
-            Error::input(format!("{file}{at}: {}", e.message()))
-        })?;
+        let raw: RawScenario =
+            toml::from_str(text).map_err(|e| toml_error(&e, text, file, lines))?;
         let c = Checker { text, file, lines };
         Scenario::from_raw(raw, &c, base)
     }
@@ -746,6 +734,23 @@ impl Checker<'_> {
             Err(self.fail(section, key, v, expected))
         }
     }
+}
+
+/// A TOML or type error, with the line (and its text) where the file has one.
+fn toml_error(e: &toml::de::Error, text: &str, file: &str, lines: bool) -> Error {
+    // A missing field's span is the whole table: no line says more than the message.
+    let line = e
+        .span()
+        .filter(|_| lines && !e.message().starts_with("missing field"))
+        .map(|s| line_of(text, s.start));
+    let at = match line {
+        Some(l) => format!(
+            " line {l} ({})",
+            text.lines().nth(l - 1).unwrap_or("").trim()
+        ),
+        None => String::new(),
+    };
+    Error::input(format!("{file}{at}: {}", e.message()))
 }
 
 fn line_of(text: &str, byte: usize) -> usize {

@@ -13,10 +13,10 @@ use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Ledger, SIGMA, Surroundings};
 use crate::run::{
-    Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, RunResult, Snapshot, Support, Trace,
-    replay,
+    Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult, Snapshot,
+    Support, Trace, replay,
 };
-use crate::schedule::{Deposit, read_fractions, validate};
+use crate::schedule::{Deposit, read_fractions, segment_start, validate};
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -50,6 +50,10 @@ pub struct VoxelSettings {
     pub trace_hottest: bool,
     /// Stability margin on the explicit step (≤ 1).
     pub courant: f64,
+    /// Points whose temperature is kept ([`crate::run::ProbeTrace`]), m.
+    pub probes: Vec<[f64; 3]>,
+    /// Least time between two kept probe samples, s (0: every step).
+    pub probe_every: f64,
 }
 
 /// Goldak double-ellipsoid parameters relative to the bead: half-width a = W/2, depth b = H,
@@ -319,11 +323,7 @@ impl VoxelModel {
     /// previous point.
     fn lay(&mut self, deps: &[Deposit], i: usize) {
         let d = &deps[i];
-        let prev = if i > 0 {
-            deps[i - 1].position
-        } else {
-            d.position
-        };
+        let prev = segment_start(deps, i);
         let dx = self.settings.size;
         let axis = d.axis;
         let seg = sub(d.position, prev);
@@ -406,6 +406,33 @@ impl VoxelModel {
         }
         let f = self.flat(cell[0] as usize, cell[1] as usize, cell[2] as usize);
         self.index.get(&f).copied()
+    }
+
+    /// The active voxel whose centre is nearest to `p` (m), if one lies within a cell's edge of
+    /// it: a point on the part's surface reads the cell beneath the surface.
+    pub fn voxel_near(&self, p: [f64; 3]) -> Option<u32> {
+        let dx = self.settings.size;
+        let cell: [isize; 3] =
+            std::array::from_fn(|k| ((p[k] - self.origin[k]) / dx).floor() as isize);
+        let mut best: Option<(f64, u32)> = None;
+        for oz in -1..=1 {
+            for oy in -1..=1 {
+                for ox in -1..=1 {
+                    let c = [cell[0] + ox, cell[1] + oy, cell[2] + oz];
+                    if (0..3).any(|k| c[k] < 0 || c[k] >= self.dims[k] as isize) {
+                        continue;
+                    }
+                    let (ix, iy, iz) = (c[0] as usize, c[1] as usize, c[2] as usize);
+                    if let Some(&v) = self.index.get(&self.flat(ix, iy, iz)) {
+                        let d = norm(sub(self.centre(ix, iy, iz), p));
+                        if d <= dx && best.is_none_or(|b| d < b.0) {
+                            best = Some((d, v));
+                        }
+                    }
+                }
+            }
+        }
+        best.map(|b| b.1)
     }
 
     /// Temperature of voxel v, K.
@@ -542,11 +569,7 @@ impl VoxelModel {
     fn source(&self, deps: &[Deposit], i: usize, heat: f64, out: &mut Vec<(u32, f32)>) {
         out.clear();
         let d = &deps[i];
-        let prev = if i > 0 {
-            deps[i - 1].position
-        } else {
-            d.position
-        };
+        let prev = segment_start(deps, i);
         // The pool sits on the metal, `sink` below the path point where the metal settled.
         let pool = sub(d.position, scale(d.axis, self.sink[i]));
         if d.arc_time <= 0.0 || heat <= 0.0 {
@@ -686,6 +709,9 @@ pub struct VoxelRun {
     snapshots: Vec<Snapshot>,
     traces: Vec<Trace>,
     hottest: Hottest,
+    probes: Vec<ProbeTrace>,
+    /// Per probe, its voxel once one lies within a cell of it.
+    probe_voxels: Vec<Option<u32>>,
     underpowered: usize,
     now: f64,
     laid: usize,
@@ -740,6 +766,13 @@ impl VoxelRun {
                 .map(|&d| Trace::new(d))
                 .collect(),
             hottest: Hottest::default(),
+            probes: model
+                .settings
+                .probes
+                .iter()
+                .map(|&p| ProbeTrace::new(p))
+                .collect(),
+            probe_voxels: vec![None; model.settings.probes.len()],
             underpowered: 0,
             laid: 0,
             next_probe: 0,
@@ -762,12 +795,34 @@ impl VoxelRun {
         let hottest = self.model.observe(laid, dt, &mut self.points);
         let on = self.model.settings.trace_hottest;
         self.hottest.push(on, self.now, hottest);
+        self.sample_probes();
         self.model.keep(laid, self.now, &mut self.snapshots);
         for tr in &mut self.traces {
             if tr.deposit < laid {
                 tr.time.push(self.now);
                 tr.temperature.push(self.model.metal_t(tr.deposit));
             }
+        }
+    }
+
+    /// Keep each probe's temperature, at most every `probe_every` seconds.
+    fn sample_probes(&mut self) {
+        let every = self.model.settings.probe_every;
+        for (k, trace) in self.probes.iter_mut().enumerate() {
+            if trace
+                .time
+                .last()
+                .is_some_and(|&t| self.now - t < every - 1e-12)
+            {
+                continue;
+            }
+            if self.probe_voxels[k].is_none() {
+                self.probe_voxels[k] = self.model.voxel_near(trace.position);
+            }
+            trace.time.push(self.now);
+            trace
+                .temperature
+                .push(self.probe_voxels[k].map_or(f64::NAN, |v| self.model.temperature(v)));
         }
     }
 
@@ -916,6 +971,7 @@ impl HeatRun for VoxelRun {
             snapshots: self.snapshots,
             traces: self.traces,
             hottest: self.hottest,
+            probes: self.probes,
             ledger: m.ledger,
             stored,
             balance_error: if e > 0.0 {
@@ -1015,6 +1071,8 @@ mod tests {
             traces: vec![],
             trace_hottest: false,
             courant: 0.9,
+            probes: vec![],
+            probe_every: 0.0,
         };
         (deps, settings)
     }

@@ -1,0 +1,216 @@
+//! `waamtwin replay SCENARIO -o DIR`: a toolpath the machine ran, heated by the voxel model, and
+//! held against what the part measured: probes.csv (every sample where both read), replay.json
+//! (agreement per probe and over all), probes.png (measured and predicted against time).
+
+use crate::error::{Error, Result};
+use crate::measured::{probes, table, toolpath};
+use crate::output::RunDir;
+use crate::pipeline::deposition::heat_model_of;
+use crate::pipeline::replay::{self, Agreement, Sample};
+use crate::progress::Stage;
+use crate::scenario::replay::{Probes, ReplayScenario, Tables};
+use serde_json::json;
+use std::fmt::Write;
+use std::path::Path;
+use std::time::Instant;
+use thermal::ZERO_CELSIUS_K as C;
+use thermal::material::Material;
+
+/// One probe's comparison.
+pub struct Compared {
+    pub name: String,
+    pub samples: Vec<Sample>,
+    pub agreement: Option<Agreement>,
+}
+
+pub fn run(scenario: &Path, out: &Path) -> Result<String> {
+    let s = ReplayScenario::load(scenario)?;
+    let path = toolpath::event_series(&read(&s.toolpath)?, &s.toolpath.display().to_string())?;
+    let deps = replay::deposits(&path, &s.laying);
+    if deps.is_empty() {
+        return Err(Error::input(format!(
+            "{}: no segment lays metal (every `on` is 0); expected at least one",
+            s.toolpath.display()
+        )));
+    }
+    let material = material(&s.material)?;
+    let measured = match &s.probes {
+        Some(p) => Some(measured(p)?),
+        None => None,
+    };
+    let mut dir = RunDir::create(out)?;
+    let mut model = heat_model_of(material, &s.thermal, &deps, vec![], vec![]);
+    if let (Some(p), Some(m)) = (&s.probes, &measured) {
+        let positions = p.points.iter().map(|q| q.position_m).collect();
+        model.set_probes(positions, sampling_interval(&m.t_s));
+    }
+    let clock = Instant::now();
+    let result = {
+        let _stage = Stage::start("heating the replayed toolpath");
+        model.simulate(&deps)?
+    };
+    let wall_s = clock.elapsed().as_secs_f64();
+    let build_s = deps.last().map_or(0.0, |d| d.time);
+    let window = s.window_s.unwrap_or([0.0, build_s]);
+    let compared: Vec<Compared> = match (&s.probes, &measured) {
+        (Some(p), Some(m)) => compare(p, m, &result.probes, window),
+        _ => Vec::new(),
+    };
+    dir.write("probes.csv", probes_csv(&compared).as_bytes())?;
+    let voxels = match result.cells {
+        thermal::Cells::Voxel { voxels, .. } => voxels,
+        _ => 0,
+    };
+    let overall = overall(&compared);
+    dir.write_json(
+        "replay.json",
+        &json!({
+            "model": model.name(),
+            "deposits": deps.len(),
+            "voxels": voxels,
+            "steps": result.steps,
+            "build_s": build_s,
+            "wall_s": wall_s,
+            "balance_error": result.balance_error,
+            "window_s": window,
+            "rms_c": overall.map(|o| o.0),
+            "samples": overall.map(|o| o.1),
+            "probes": compared.iter().map(|c| json!({
+                "name": c.name,
+                "samples": c.agreement.as_ref().map(|a| a.samples),
+                "rms_c": c.agreement.as_ref().map(|a| a.rms_c),
+                "max_abs_c": c.agreement.as_ref().map(|a| a.max_abs_c),
+                "max_at_s": c.agreement.as_ref().map(|a| a.max_at_s),
+                "bias_c": c.agreement.as_ref().map(|a| a.bias_c),
+            })).collect::<Vec<_>>(),
+        }),
+    )?;
+    #[cfg(feature = "recording")]
+    if !compared.is_empty() {
+        let title = scenario
+            .file_stem()
+            .map_or("replay".into(), |n| n.to_string_lossy().into_owned());
+        let series: Vec<(&str, &[Sample])> = compared
+            .iter()
+            .map(|c| (c.name.as_str(), c.samples.as_slice()))
+            .collect();
+        crate::record::probe_plot(&mut dir, "probes.png", &title, &series, s.window_s)?;
+    }
+    dir.finish("replay", s.to_json())?;
+    Ok(summary(&deps, build_s, wall_s, &compared, overall))
+}
+
+fn read(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path)
+        .map_err(|e| Error::input(format!("cannot read {}: {e}", path.display())))
+}
+
+fn material(t: &Tables) -> Result<Material> {
+    let load = |path: &Path, scale: f64| -> Result<Vec<(f64, f64)>> {
+        let rows = table::rows(&read(path)?, &path.display().to_string())?;
+        Ok(rows.into_iter().map(|(k, v)| (k, v * scale)).collect())
+    };
+    let cp = load(&t.specific_heat, t.specific_heat_scale)?;
+    let k = load(&t.conductivity, t.conductivity_scale)?;
+    Material::from_tables(
+        t.density_kg_m3,
+        &cp,
+        &k,
+        t.solidus_k,
+        t.liquidus_k,
+        t.latent_j_kg,
+    )
+    .map_err(|e| Error::input(format!("material {}: {e}", t.name)))
+}
+
+/// The measured series in °C.
+fn measured(p: &Probes) -> Result<probes::Series> {
+    let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
+    let file = p.file.display().to_string();
+    let mut s = probes::series(&read(&p.file)?, &file, p.time_column, &columns)?;
+    if p.kelvin {
+        for v in s.values.iter_mut().flatten().flatten() {
+            *v -= C;
+        }
+    }
+    Ok(s)
+}
+
+/// The measured series' shortest step: the model keeps its probes at least that often.
+fn sampling_interval(t_s: &[f64]) -> f64 {
+    t_s.windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min)
+        .min(1.0)
+}
+
+fn compare(
+    p: &Probes,
+    m: &probes::Series,
+    traces: &[thermal::run::ProbeTrace],
+    window: [f64; 2],
+) -> Vec<Compared> {
+    p.points
+        .iter()
+        .zip(&m.values)
+        .zip(traces)
+        .map(|((q, values), trace)| {
+            let samples = replay::pair(&m.t_s, values, trace);
+            let agreement = replay::agreement(&samples, (window[0], window[1]));
+            Compared {
+                name: q.name.clone(),
+                samples,
+                agreement,
+            }
+        })
+        .collect()
+}
+
+/// RMS over every sample of every probe in the window, and how many.
+fn overall(c: &[Compared]) -> Option<(f64, usize)> {
+    let (sq, n) = c
+        .iter()
+        .filter_map(|c| c.agreement.as_ref())
+        .fold((0.0, 0), |(sq, n), a| {
+            (sq + a.rms_c * a.rms_c * a.samples as f64, n + a.samples)
+        });
+    (n > 0).then(|| ((sq / n as f64).sqrt(), n))
+}
+
+fn probes_csv(c: &[Compared]) -> String {
+    let mut out = String::from("probe,t_s,measured_c,predicted_c\n");
+    for p in c {
+        for (t, m, pr) in &p.samples {
+            let _ = writeln!(out, "{},{t:.4},{m:.2},{pr:.2}", p.name);
+        }
+    }
+    out
+}
+
+fn summary(
+    deps: &[thermal::schedule::Deposit],
+    build_s: f64,
+    wall_s: f64,
+    c: &[Compared],
+    overall: Option<(f64, usize)>,
+) -> String {
+    let mut line = format!(
+        "{} deposits, build {build_s:.0} s, heated in {wall_s:.1} s",
+        deps.len()
+    );
+    if let Some((rms, n)) = overall {
+        let worst = c
+            .iter()
+            .filter_map(|c| c.agreement.as_ref().map(|a| (a.rms_c, &c.name)))
+            .fold(
+                (0.0, ""),
+                |w, (r, n)| if r > w.0 { (r, n.as_str()) } else { w },
+            );
+        let _ = write!(
+            line,
+            "; probes: RMS {rms:.0} °C over {n} samples (worst {} at {:.0} °C)",
+            worst.1, worst.0
+        );
+    }
+    line
+}

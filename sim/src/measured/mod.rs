@@ -1,0 +1,22 @@
+//! What a real machine did and what a real part measured, read from text: a toolpath as an
+//! event series ([`toolpath`]) and probe time series ([`probes`]). The readers take the text
+//! and the file's name (for messages) and do no IO themselves; each bad line is a one-line
+//! error naming the file, the line, the value and what was expected.
+
+pub mod probes;
+pub mod table;
+pub mod toolpath;
+
+use crate::error::Error;
+
+/// "FILE line N: ..." as an input error.
+fn at_line(file: &str, line: usize, what: impl std::fmt::Display) -> Error {
+    Error::input(format!("{file} line {line}: {what}"))
+}
+
+/// The fields of a CSV or whitespace-separated line.
+fn fields(line: &str) -> Vec<&str> {
+    line.split(|c: char| c == ',' || c == ';' || c.is_whitespace())
+        .filter(|f| !f.is_empty())
+        .collect()
+}

@@ -1,0 +1,118 @@
+//! Probe time series: one time column and one column per probe (thermocouples, IR spots), as
+//! acquisition software writes them. A value of 0 or an empty field is no reading (the GAMMA IR
+//! columns read 0 until metal is there). A header line, if any, is skipped.
+
+use super::at_line;
+use crate::error::Result;
+
+/// Measured series, as read: per probe one value or none per time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    pub t_s: Vec<f64>,
+    /// Per probe (in the order asked for), per time.
+    pub values: Vec<Vec<Option<f64>>>,
+}
+
+/// Read columns `columns` (0-based) against column `time_column`; `file` names it in messages.
+pub fn series(text: &str, file: &str, time_column: usize, columns: &[usize]) -> Result<Series> {
+    let mut s = Series {
+        t_s: Vec::new(),
+        values: vec![Vec::new(); columns.len()],
+    };
+    let widest = columns
+        .iter()
+        .copied()
+        .chain([time_column])
+        .max()
+        .unwrap_or(0);
+    for (k, line) in text.lines().enumerate() {
+        let n = k + 1;
+        if line.trim().is_empty() || line.trim_start().starts_with('#') {
+            continue;
+        }
+        // Empty fields are readings missing: split on the separator, not on runs of it.
+        let f: Vec<&str> = match line.contains(',') {
+            true => line.split(',').map(str::trim).collect(),
+            false => line.split_whitespace().collect(),
+        };
+        if s.t_s.is_empty() && k == 0 && f[0].parse::<f64>().is_err() {
+            continue;
+        }
+        if f.len() <= widest {
+            return Err(at_line(
+                file,
+                n,
+                format!("{} fields; expected at least {}", f.len(), widest + 1),
+            ));
+        }
+        let t = match f[time_column].parse::<f64>() {
+            Ok(t) if t.is_finite() => t,
+            _ => {
+                return Err(at_line(
+                    file,
+                    n,
+                    format!("time {:?}; expected a finite number", f[time_column]),
+                ));
+            }
+        };
+        if let Some(&last) = s.t_s.last()
+            && t <= last
+        {
+            return Err(at_line(
+                file,
+                n,
+                format!("time {t} after {last}; expected increasing times"),
+            ));
+        }
+        s.t_s.push(t);
+        for (j, &c) in columns.iter().enumerate() {
+            let v = match f[c] {
+                "" => None,
+                text => match text.parse::<f64>() {
+                    Ok(v) if v.is_finite() => (v != 0.0).then_some(v),
+                    _ => {
+                        return Err(at_line(
+                            file,
+                            n,
+                            format!("column {c} = {text:?}; expected a number"),
+                        ));
+                    }
+                },
+            };
+            s.values[j].push(v);
+        }
+    }
+    if s.t_s.is_empty() {
+        return Err(crate::error::Error::input(format!(
+            "{file}: no rows; expected a time series"
+        )));
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::series;
+
+    #[test]
+    fn zero_and_empty_are_no_reading() {
+        let s = series("t,a,b\n0.0,0,25.1\n0.5,300.5,\n", "tc.csv", 0, &[2, 1]).unwrap();
+        assert_eq!(s.t_s, vec![0.0, 0.5]);
+        assert_eq!(s.values[0], vec![Some(25.1), None]);
+        assert_eq!(s.values[1], vec![None, Some(300.5)]);
+    }
+
+    #[test]
+    fn a_bad_row_names_its_line() {
+        let e = series("0,1\n1,x\n", "ir.csv", 0, &[1]).unwrap_err();
+        assert!(
+            e.message.contains("ir.csv line 2: column 1 = \"x\""),
+            "{}",
+            e.message
+        );
+        let e = series("0,1\n1\n", "ir.csv", 0, &[1]).unwrap_err();
+        assert!(e.message.contains("line 2: 1 fields"), "{}", e.message);
+        let e = series("1,1\n0,1\n", "ir.csv", 0, &[1]).unwrap_err();
+        assert!(e.message.contains("time 0 after 1"), "{}", e.message);
+    }
+}

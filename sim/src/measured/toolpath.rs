@@ -1,0 +1,136 @@
+//! A toolpath as the machine ran it: waypoints in time, each saying whether metal was laid on
+//! the way to it.
+//!
+//! The event-series CSV: `t_s, x_mm, y_mm, z_mm, on` per line, optionally under a header line;
+//! `on` is 0 or 1 (the segment ending at this waypoint deposits), a power in W (deposits when
+//! above 0), or `_POWER_` (deposits at the scenario's power: ORNL's event series leaves the
+//! power to the machine log). Times must increase.
+
+use super::{at_line, fields};
+use crate::error::Result;
+
+/// Where the torch is at a time, and what it did on the way there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Waypoint {
+    pub t_s: f64,
+    pub position_mm: [f64; 3],
+    /// Metal is laid on the segment ending here.
+    pub on: bool,
+    /// The power on that segment, W, where the file gives it.
+    pub power_w: Option<f64>,
+}
+
+/// Read an event series; `file` names it in messages.
+pub fn event_series(text: &str, file: &str) -> Result<Vec<Waypoint>> {
+    let mut out: Vec<Waypoint> = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let n = k + 1;
+        let f = fields(line);
+        if f.is_empty() || line.trim_start().starts_with('#') {
+            continue;
+        }
+        // A header: the first line whose first field is not a number.
+        if out.is_empty() && k == 0 && f[0].parse::<f64>().is_err() {
+            continue;
+        }
+        if f.len() < 5 {
+            return Err(at_line(
+                file,
+                n,
+                format!("{} fields; expected 5: t_s, x_mm, y_mm, z_mm, on", f.len()),
+            ));
+        }
+        let number = |i: usize, name: &str| -> Result<f64> {
+            match f[i].parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                _ => Err(at_line(
+                    file,
+                    n,
+                    format!("{name} = {:?}; expected a finite number", f[i]),
+                )),
+            }
+        };
+        let t_s = number(0, "t_s")?;
+        let position_mm = [number(1, "x_mm")?, number(2, "y_mm")?, number(3, "z_mm")?];
+        let (on, power_w) = match f[4] {
+            "_POWER_" => (true, None),
+            _ => match number(4, "on")? {
+                v if v == 0.0 || v == 1.0 => (v == 1.0, None),
+                v if v > 0.0 => (true, Some(v)),
+                v => {
+                    return Err(at_line(
+                        file,
+                        n,
+                        format!("on = {v}; expected 0, 1, a power in W or _POWER_"),
+                    ));
+                }
+            },
+        };
+        if let Some(last) = out.last()
+            && t_s <= last.t_s
+        {
+            return Err(at_line(
+                file,
+                n,
+                format!("t_s = {t_s} after {}; expected increasing times", last.t_s),
+            ));
+        }
+        out.push(Waypoint {
+            t_s,
+            position_mm,
+            on,
+            power_w,
+        });
+    }
+    if out.len() < 2 {
+        return Err(crate::error::Error::input(format!(
+            "{file}: {} waypoints; expected at least 2",
+            out.len()
+        )));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::event_series;
+
+    #[test]
+    fn reads_the_gamma_form_and_the_ornl_form() {
+        let gamma = "t_s,x_mm,y_mm,z_mm,laser_on_in_segment_ending_here\n\
+                     0.0,-22,0,0.75,0\n6.2857143,22,0,0.75,1\n";
+        let w = event_series(gamma, "toolpath.csv").unwrap();
+        assert_eq!(w.len(), 2);
+        assert!(!w[0].on && w[1].on);
+        assert_eq!(w[1].position_mm, [22.0, 0.0, 0.75]);
+        let ornl = "0.0000,-20.25,-249.998,0.0,_POWER_\n73.9016,-20.25,249.998,0.0,_POWER_\n";
+        let w = event_series(ornl, "events.csv").unwrap();
+        assert!(w[1].on && w[1].power_w.is_none());
+        let watts = "0,0,0,0,0\n1,1,0,0,2500\n";
+        assert_eq!(
+            event_series(watts, "p.csv").unwrap()[1].power_w,
+            Some(2500.0)
+        );
+    }
+
+    #[test]
+    fn a_bad_line_names_its_file_line_and_value() {
+        let e = event_series("0,0,0,0,0\n1,0,x,0,1\n", "p.csv").unwrap_err();
+        assert!(
+            e.message.contains("p.csv line 2: y_mm = \"x\""),
+            "{}",
+            e.message
+        );
+        let e = event_series("0,0,0,0,0\n0,1,0,0,1\n", "p.csv").unwrap_err();
+        assert!(
+            e.message.contains("line 2: t_s = 0 after 0"),
+            "{}",
+            e.message
+        );
+        let e = event_series("0,0,0,0,0\n1,1,0,0,-3\n", "p.csv").unwrap_err();
+        assert!(e.message.contains("on = -3"), "{}", e.message);
+        let e = event_series("0,0,0\n", "p.csv").unwrap_err();
+        assert!(e.message.contains("3 fields"), "{}", e.message);
+        assert_eq!(e.exit_code(), 2);
+    }
+}

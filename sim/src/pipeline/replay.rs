@@ -1,0 +1,227 @@
+//! A toolpath the machine ran, replayed on a heat model, and the model held against what the
+//! part measured (no IO: the readers are in [`crate::measured`]).
+//!
+//! Each deposited segment of the toolpath becomes deposits no longer than `deposit_m`, timed
+//! along it at its constant speed; a segment after travel with the arc off starts a new track
+//! ([`Deposit::start`]). What a deposit lies on is the latest earlier deposit within half a
+//! bead width across and about one layer below, or the plate.
+
+use crate::measured::toolpath::Waypoint;
+use thermal::ZERO_CELSIUS_K as C;
+use thermal::run::ProbeTrace;
+use thermal::schedule::Deposit;
+
+/// How the toolpath's metal is laid, SI.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Laying {
+    /// Power on a deposited segment where the toolpath gives none, W.
+    pub power_w: f64,
+    /// Share of the power that enters the part (arc efficiency, laser absorptivity).
+    pub efficiency: f64,
+    pub width_m: f64,
+    pub height_m: f64,
+    /// Longest deposit, m.
+    pub deposit_m: f64,
+}
+
+/// The deposition schedule of a toolpath.
+pub fn deposits(path: &[Waypoint], l: &Laying) -> Vec<Deposit> {
+    let mut out: Vec<Deposit> = Vec::new();
+    for w in path.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        if !b.on {
+            continue;
+        }
+        let from = a.position_mm.map(|x| x * 1e-3);
+        let to = b.position_mm.map(|x| x * 1e-3);
+        let length = dist(from, to);
+        let n = ((length / l.deposit_m).ceil() as usize).max(1);
+        let dt = (b.t_s - a.t_s) / n as f64;
+        let power = b.power_w.unwrap_or(l.power_w);
+        // A new track where the previous deposit did not end at this segment's start.
+        let continues = out.last().is_some_and(|d| dist(d.position, from) < 1e-9);
+        for k in 1..=n {
+            let f = k as f64 / n as f64;
+            let position = std::array::from_fn(|i| from[i] + f * (to[i] - from[i]));
+            out.push(Deposit {
+                position,
+                time: a.t_s + k as f64 * dt,
+                arc_time: dt,
+                heat: l.efficiency * power * dt,
+                width: l.width_m,
+                height: l.height_m,
+                axis: [0.0, 0.0, 1.0],
+                support: None,
+                start: (k == 1 && !continues).then_some(from),
+            });
+        }
+    }
+    let supports = supports(&out, l.width_m, l.height_m);
+    for (d, s) in out.iter_mut().zip(supports) {
+        d.support = s;
+    }
+    out
+}
+
+/// Per deposit, the nearest earlier one (across; the latest of equals) within half a width
+/// across and 0.3–1.7 layers below.
+fn supports(deps: &[Deposit], width: f64, height: f64) -> Vec<Option<usize>> {
+    (0..deps.len())
+        .map(|i| {
+            let p = deps[i].position;
+            let mut best: Option<(f64, usize)> = None;
+            for j in (0..i).rev() {
+                let q = deps[j].position;
+                let across = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
+                let down = p[2] - q[2];
+                let below = across <= width / 2.0 && down > 0.3 * height && down < 1.7 * height;
+                if below && best.is_none_or(|b| across < b.0) {
+                    best = Some((across, j));
+                }
+            }
+            best.map(|b| b.1)
+        })
+        .collect()
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// One probe's measurement against the model's prediction at the same place and times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Agreement {
+    /// Samples where both read, inside the window.
+    pub samples: usize,
+    pub rms_c: f64,
+    /// Largest |predicted − measured|, and when.
+    pub max_abs_c: f64,
+    pub max_at_s: f64,
+    /// Mean of predicted − measured.
+    pub bias_c: f64,
+}
+
+/// One sample: time, measured and predicted, °C.
+pub type Sample = (f64, f64, f64);
+
+/// The prediction at each measured time where both read (°C; `measured_c` already in °C),
+/// the model's trace interpolated linearly.
+pub fn pair(t_s: &[f64], measured_c: &[Option<f64>], trace: &ProbeTrace) -> Vec<Sample> {
+    t_s.iter()
+        .zip(measured_c)
+        .filter_map(|(&t, m)| {
+            let m = (*m)?;
+            let p = at(trace, t)?;
+            Some((t, m, p - C))
+        })
+        .collect()
+}
+
+/// The trace at time t, K; None outside it or where it does not read.
+fn at(trace: &ProbeTrace, t: f64) -> Option<f64> {
+    let k = trace.time.partition_point(|&x| x < t);
+    let v = match k {
+        k if trace.time.get(k) == Some(&t) => trace.temperature[k],
+        0 => return None,
+        k if k == trace.time.len() => return None,
+        k => {
+            let (t0, t1) = (trace.time[k - 1], trace.time[k]);
+            let (v0, v1) = (trace.temperature[k - 1], trace.temperature[k]);
+            v0 + (t - t0) / (t1 - t0) * (v1 - v0)
+        }
+    };
+    v.is_finite().then_some(v)
+}
+
+/// How well the samples inside `window` (s, inclusive) agree; None without a sample there.
+pub fn agreement(samples: &[Sample], window: (f64, f64)) -> Option<Agreement> {
+    let inside: Vec<&Sample> = samples
+        .iter()
+        .filter(|s| s.0 >= window.0 && s.0 <= window.1)
+        .collect();
+    if inside.is_empty() {
+        return None;
+    }
+    let n = inside.len() as f64;
+    let errors = inside.iter().map(|s| (s.0, s.2 - s.1));
+    let (mut sq, mut sum, mut max, mut max_at) = (0.0, 0.0, 0.0f64, window.0);
+    for (t, e) in errors {
+        sq += e * e;
+        sum += e;
+        if e.abs() > max {
+            (max, max_at) = (e.abs(), t);
+        }
+    }
+    Some(Agreement {
+        samples: inside.len(),
+        rms_c: (sq / n).sqrt(),
+        max_abs_c: max,
+        max_at_s: max_at,
+        bias_c: sum / n,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn laying() -> Laying {
+        Laying {
+            power_w: 500.0,
+            efficiency: 0.5,
+            width_m: 2e-3,
+            height_m: 0.75e-3,
+            deposit_m: 1e-3,
+        }
+    }
+
+    fn waypoint(t_s: f64, x: f64, z: f64, on: bool) -> Waypoint {
+        Waypoint {
+            t_s,
+            position_mm: [x, 0.0, z],
+            on,
+            power_w: None,
+        }
+    }
+
+    /// Two tracks one way with a return trip between: the second starts its own bead and lies
+    /// on the first; each segment's heat is η·P over its share of the time.
+    #[test]
+    fn two_tracks_one_way() {
+        let path = [
+            waypoint(0.0, -2.0, 0.75, false),
+            waypoint(4.0, 2.0, 0.75, true),
+            waypoint(8.0, -2.0, 1.5, false),
+            waypoint(12.0, 2.0, 1.5, true),
+        ];
+        let d = deposits(&path, &laying());
+        assert_eq!(d.len(), 8);
+        assert_eq!(d[0].start, Some([-2e-3, 0.0, 0.75e-3]));
+        assert!(d[1..4].iter().all(|x| x.start.is_none()));
+        assert_eq!(d[4].start, Some([-2e-3, 0.0, 1.5e-3]));
+        assert!((d[0].arc_time - 1.0).abs() < 1e-12 && (d[0].heat - 250.0).abs() < 1e-9);
+        assert_eq!(d[3].support, None);
+        assert_eq!(d[4].support, Some(0));
+        assert_eq!(d[7].support, Some(3));
+        thermal::schedule::validate(&d).unwrap();
+    }
+
+    #[test]
+    fn agreement_of_known_errors() {
+        let trace = ProbeTrace {
+            position: [0.0; 3],
+            time: vec![0.0, 1.0, 2.0],
+            temperature: vec![f64::NAN, C + 110.0, C + 130.0],
+        };
+        let t = [0.5, 1.0, 1.5, 2.0, 3.0];
+        let m = [Some(1.0), Some(100.0), None, Some(140.0), Some(1.0)];
+        let s = pair(&t, &m, &trace);
+        // 0.5 s: the trace does not read yet; 1.5 s: no measurement; 3 s: past the trace.
+        assert_eq!(s.len(), 2);
+        let a = agreement(&s, (0.0, 10.0)).unwrap();
+        assert_eq!(a.samples, 2);
+        assert!((a.rms_c - 10.0).abs() < 1e-9);
+        assert!(a.bias_c.abs() < 1e-9);
+        assert!(agreement(&s, (5.0, 6.0)).is_none());
+    }
+}

@@ -1,0 +1,371 @@
+//! Replay scenarios: a toolpath the machine ran (not a CTPP plan), the process and material it
+//! ran with, the heat model's settings (the `[thermal]` section of every scenario), and the
+//! probes the part was measured with. Every key is documented in `scenarios/README.md`; file
+//! paths are relative to the scenario's folder.
+
+use super::{Checker, RawThermal, ThermalModel, ThermalSettings, toml_error};
+use crate::error::{Error, Result};
+use crate::pipeline::replay::Laying;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use thermal::ZERO_CELSIUS_K as KELVIN;
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawReplay {
+    pub toolpath: RawToolpath,
+    pub process: RawLaying,
+    pub material: RawTables,
+    #[serde(default)]
+    pub thermal: RawThermal,
+    pub probes: Option<RawProbes>,
+    #[serde(default)]
+    pub compare: RawCompare,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawToolpath {
+    pub file: String,
+    /// "events": `t_s, x_mm, y_mm, z_mm, on`.
+    #[serde(default = "events")]
+    pub format: String,
+    #[serde(default = "one")]
+    pub deposit_mm: f64,
+}
+
+fn events() -> String {
+    "events".into()
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLaying {
+    pub power_w: f64,
+    /// Arc efficiency or laser absorptivity.
+    pub efficiency: f64,
+    pub bead_width_mm: f64,
+    pub layer_height_mm: f64,
+}
+
+/// A material from property tables (two columns: T in K, value; comma or space separated).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTables {
+    pub name: String,
+    pub density_kg_m3: f64,
+    pub specific_heat_table: String,
+    /// "J/(kg K)" or "J/(g K)".
+    pub specific_heat_unit: String,
+    pub conductivity_table: String,
+    /// "W/(m K)" or "W/(mm K)".
+    pub conductivity_unit: String,
+    pub solidus_c: f64,
+    pub liquidus_c: f64,
+    pub latent_j_kg: f64,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawProbes {
+    pub file: String,
+    /// "C" or "K".
+    pub unit: String,
+    #[serde(default)]
+    pub time_column: usize,
+    pub points: Vec<RawProbe>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawProbe {
+    pub name: String,
+    pub column: usize,
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub z_mm: f64,
+}
+
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCompare {
+    /// Build time over which agreement is judged, s (default: the whole build).
+    pub window_s: Option<[f64; 2]>,
+}
+
+/// A probe as the command uses it: where it is (m) and which column it reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Probe {
+    pub name: String,
+    pub column: usize,
+    pub position_m: [f64; 3],
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Probes {
+    pub file: PathBuf,
+    pub kelvin: bool,
+    pub time_column: usize,
+    pub points: Vec<Probe>,
+}
+
+/// The material's tables, resolved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tables {
+    pub name: String,
+    pub density_kg_m3: f64,
+    pub specific_heat: PathBuf,
+    /// Multiplies the file's values into J/(kg K).
+    pub specific_heat_scale: f64,
+    pub conductivity: PathBuf,
+    /// Multiplies the file's values into W/(m K).
+    pub conductivity_scale: f64,
+    pub solidus_k: f64,
+    pub liquidus_k: f64,
+    pub latent_j_kg: f64,
+}
+
+#[derive(Debug, Clone)]
+pub struct ReplayScenario {
+    pub toolpath: PathBuf,
+    pub laying: Laying,
+    pub material: Tables,
+    pub thermal: ThermalSettings,
+    pub probes: Option<Probes>,
+    pub window_s: Option<[f64; 2]>,
+    pub raw: RawReplay,
+}
+
+impl ReplayScenario {
+    pub fn load(path: &Path) -> Result<ReplayScenario> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        ReplayScenario::parse(&text, &path.display().to_string(), base)
+    }
+
+    pub fn parse(text: &str, file: &str, base: &Path) -> Result<ReplayScenario> {
+        let raw: RawReplay = toml::from_str(text).map_err(|e| toml_error(&e, text, file, true))?;
+        let c = Checker {
+            text,
+            file,
+            lines: true,
+        };
+        let p = &raw.process;
+        c.positive("process", "power_w", p.power_w, 1e5)?;
+        c.positive("process", "efficiency", p.efficiency, 1.0)?;
+        c.positive("process", "bead_width_mm", p.bead_width_mm, 100.0)?;
+        c.positive("process", "layer_height_mm", p.layer_height_mm, 50.0)?;
+        c.positive("toolpath", "deposit_mm", raw.toolpath.deposit_mm, 100.0)?;
+        if raw.toolpath.format != "events" {
+            return Err(c.fail(
+                "toolpath",
+                "format",
+                format!("\"{}\"", raw.toolpath.format),
+                "\"events\" (t_s, x_mm, y_mm, z_mm, on)",
+            ));
+        }
+        let thermal = super::thermal(&raw.thermal, p.bead_width_mm, &c)?;
+        if thermal.model != ThermalModel::Voxel {
+            return Err(c.fail(
+                "thermal",
+                "model",
+                format!("\"{}\"", raw.thermal.model),
+                "\"voxel\": a replayed toolpath has tracks with travel between them, and the \
+                 thin wall models one continuous bead",
+            ));
+        }
+        Ok(ReplayScenario {
+            toolpath: base.join(&raw.toolpath.file),
+            laying: Laying {
+                power_w: p.power_w,
+                efficiency: p.efficiency,
+                width_m: p.bead_width_mm * 1e-3,
+                height_m: p.layer_height_mm * 1e-3,
+                deposit_m: raw.toolpath.deposit_mm * 1e-3,
+            },
+            material: tables(&raw.material, &c, base)?,
+            thermal,
+            probes: raw
+                .probes
+                .as_ref()
+                .map(|p| probes(p, &c, base))
+                .transpose()?,
+            window_s: window(&raw.compare, &c)?,
+            raw,
+        })
+    }
+
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(&self.raw).unwrap_or_default()
+    }
+}
+
+fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<Tables> {
+    c.positive("material", "density_kg_m3", m.density_kg_m3, 30_000.0)?;
+    c.range(
+        "material",
+        "solidus_c",
+        m.solidus_c,
+        0.0,
+        3500.0,
+        "a temperature in [0, 3500] °C",
+    )?;
+    c.range(
+        "material",
+        "liquidus_c",
+        m.liquidus_c,
+        m.solidus_c + 1.0,
+        3500.0,
+        "above solidus_c",
+    )?;
+    c.range(
+        "material",
+        "latent_j_kg",
+        m.latent_j_kg,
+        0.0,
+        1e7,
+        "a latent heat in [0, 1e7] J/kg",
+    )?;
+    let cp = match m.specific_heat_unit.as_str() {
+        "J/(kg K)" => 1.0,
+        "J/(g K)" => 1e3,
+        other => {
+            return Err(c.fail(
+                "material",
+                "specific_heat_unit",
+                format!("\"{other}\""),
+                "\"J/(kg K)\" or \"J/(g K)\"",
+            ));
+        }
+    };
+    let k = match m.conductivity_unit.as_str() {
+        "W/(m K)" => 1.0,
+        "W/(mm K)" => 1e3,
+        other => {
+            return Err(c.fail(
+                "material",
+                "conductivity_unit",
+                format!("\"{other}\""),
+                "\"W/(m K)\" or \"W/(mm K)\"",
+            ));
+        }
+    };
+    Ok(Tables {
+        name: m.name.clone(),
+        density_kg_m3: m.density_kg_m3,
+        specific_heat: base.join(&m.specific_heat_table),
+        specific_heat_scale: cp,
+        conductivity: base.join(&m.conductivity_table),
+        conductivity_scale: k,
+        solidus_k: m.solidus_c + KELVIN,
+        liquidus_k: m.liquidus_c + KELVIN,
+        latent_j_kg: m.latent_j_kg,
+    })
+}
+
+fn probes(p: &RawProbes, c: &Checker, base: &Path) -> Result<Probes> {
+    let kelvin = match p.unit.as_str() {
+        "C" => false,
+        "K" => true,
+        other => {
+            return Err(c.fail("probes", "unit", format!("\"{other}\""), "\"C\" or \"K\""));
+        }
+    };
+    if p.points.is_empty() {
+        return Err(c.fail_text("probes", "points", "points is empty; expected at least one"));
+    }
+    let mut points = Vec::with_capacity(p.points.len());
+    for (k, q) in p.points.iter().enumerate() {
+        let xyz = [q.x_mm, q.y_mm, q.z_mm];
+        if !xyz.iter().all(|v| v.is_finite()) || q.column == p.time_column {
+            return Err(c.fail_text(
+                "probes",
+                "points",
+                format!(
+                    "points[{k}] ({}) at {xyz:?} mm, column {}; expected finite coordinates and \
+                     a column other than the time column {}",
+                    q.name, q.column, p.time_column
+                ),
+            ));
+        }
+        points.push(Probe {
+            name: q.name.clone(),
+            column: q.column,
+            position_m: xyz.map(|v| v * 1e-3),
+        });
+    }
+    Ok(Probes {
+        file: base.join(&p.file),
+        kelvin,
+        time_column: p.time_column,
+        points,
+    })
+}
+
+fn window(w: &RawCompare, c: &Checker) -> Result<Option<[f64; 2]>> {
+    match w.window_s {
+        Some([a, b]) if !(a.is_finite() && b.is_finite() && b > a) => Err(c.fail(
+            "compare",
+            "window_s",
+            format!("[{a}, {b}]"),
+            "[start, end] in seconds, end after start",
+        )),
+        other => Ok(other),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ReplayScenario;
+    use std::path::Path;
+
+    const GOOD: &str = "[toolpath]\nfile = \"p.csv\"\n[process]\npower_w = 500.0\nefficiency = 0.5\n\
+        bead_width_mm = 2.0\nlayer_height_mm = 0.75\n[material]\nname = \"IN718\"\n\
+        density_kg_m3 = 8190.0\nspecific_heat_table = \"cp.txt\"\nspecific_heat_unit = \"J/(g K)\"\n\
+        conductivity_table = \"k.txt\"\nconductivity_unit = \"W/(mm K)\"\nsolidus_c = 1260.0\n\
+        liquidus_c = 1336.0\nlatent_j_kg = 2.7e5\n[thermal]\nmodel = \"voxel\"\n";
+
+    #[test]
+    fn a_good_scenario_resolves_its_files_and_units() {
+        let s = ReplayScenario::parse(GOOD, "r.toml", Path::new("/data")).unwrap();
+        assert_eq!(s.toolpath, Path::new("/data/p.csv"));
+        assert_eq!(s.material.specific_heat_scale, 1e3);
+        assert_eq!(s.material.conductivity_scale, 1e3);
+        assert!((s.laying.width_m - 2e-3).abs() < 1e-15);
+        assert!(s.probes.is_none());
+    }
+
+    #[test]
+    fn bad_values_name_their_key_and_line() {
+        let bad = GOOD.replace("efficiency = 0.5", "efficiency = 1.5");
+        let e = ReplayScenario::parse(&bad, "r.toml", Path::new(".")).unwrap_err();
+        assert!(
+            e.message
+                .contains("r.toml line 5: process.efficiency = 1.5"),
+            "{}",
+            e.message
+        );
+        let fe = GOOD.replace("model = \"voxel\"", "model = \"fe\"");
+        let e = ReplayScenario::parse(&fe, "r.toml", Path::new(".")).unwrap_err();
+        assert!(
+            e.message
+                .contains("thermal.model = \"fe\"; expected \"voxel\"")
+        );
+        let unit = GOOD.replace("W/(mm K)", "W/mK");
+        let e = ReplayScenario::parse(&unit, "r.toml", Path::new(".")).unwrap_err();
+        assert!(e.message.contains("material.conductivity_unit = \"W/mK\""));
+        let unknown = GOOD.replace("[thermal]", "[thermal]\nvoxels = 3");
+        let e = ReplayScenario::parse(&unknown, "r.toml", Path::new(".")).unwrap_err();
+        assert!(
+            e.message.contains("unknown field `voxels`"),
+            "{}",
+            e.message
+        );
+        assert_eq!(e.exit_code(), 2);
+    }
+}
