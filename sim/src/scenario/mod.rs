@@ -81,6 +81,15 @@ impl Scenario {
     }
 
     fn parse_with(text: &str, file: &str, base: &Path, lines: bool) -> Result<Scenario> {
+        if text
+            .parse::<toml::Table>()
+            .is_ok_and(|t| t.contains_key("toolpath"))
+        {
+            return Err(Error::input(format!(
+                "{file}: a replay scenario (it has [toolpath]), not a part to plan; run it with \
+                 `waamtwin replay`"
+            )));
+        }
         let raw: RawScenario =
             toml::from_str(text).map_err(|e| toml_error(&e, text, file, lines))?;
         let c = Checker { text, file, lines };
