@@ -54,6 +54,19 @@ pub enum Command {
         #[arg(short = 'o', long = "out")]
         out: PathBuf,
     },
+    /// Fit up to three of a replay's parameters to its probes over a fit window and judge the
+    /// fit on a held-out one: calibration.json, probes.csv, probes.png.
+    Calibrate {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+        /// The fit window, T0:T1 in seconds of build time (default: the first half).
+        #[arg(long)]
+        fit: Option<String>,
+        /// The held-out window, T0:T1 (default: the second half).
+        #[arg(long)]
+        holdout: Option<String>,
+    },
     /// Plan, simulate and plan the cooling dwells: dwells.csv, dwell.json, and the dwelled run.
     Dwell {
         scenario: PathBuf,

@@ -50,6 +50,22 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             println!("{}", commands::simulate::run(&scenario, &out)?);
             Ok(())
         }
+        Command::Calibrate {
+            scenario,
+            out,
+            fit,
+            holdout,
+        } => {
+            let window = |w: Option<String>, flag: &str| {
+                w.map(|w| commands::calibrate::window(&w, flag)).transpose()
+            };
+            let (fit, holdout) = (window(fit, "--fit")?, window(holdout, "--holdout")?);
+            println!(
+                "{}",
+                commands::calibrate::run(&scenario, &out, fit, holdout)?
+            );
+            Ok(())
+        }
         Command::Replay { scenario, out } => {
             println!("{}", commands::replay::run(&scenario, &out)?);
             Ok(())

@@ -5,7 +5,15 @@ use crate::{read_csv, root, scratch, waamtwin};
 #[test]
 fn every_subcommand_has_help() {
     for cmd in [
-        "inspect", "geodesic", "plan", "simulate", "dwell", "mesh", "demo", "replay",
+        "inspect",
+        "geodesic",
+        "plan",
+        "simulate",
+        "dwell",
+        "mesh",
+        "demo",
+        "replay",
+        "calibrate",
     ] {
         let out = waamtwin(&[cmd, "--help"]);
         assert!(out.status.success(), "{cmd} --help");

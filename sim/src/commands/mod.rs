@@ -1,5 +1,6 @@
 //! One module per subcommand; each is a library function a test can call.
 
+pub mod calibrate;
 pub mod demo;
 pub mod dwell;
 pub mod geodesic;

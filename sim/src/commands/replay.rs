@@ -100,12 +100,12 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     Ok(summary(&deps, build_s, wall_s, &compared, overall))
 }
 
-fn read(path: &Path) -> Result<String> {
+pub(crate) fn read(path: &Path) -> Result<String> {
     std::fs::read_to_string(path)
         .map_err(|e| Error::input(format!("cannot read {}: {e}", path.display())))
 }
 
-fn material(t: &Tables) -> Result<Material> {
+pub(crate) fn material(t: &Tables) -> Result<Material> {
     let load = |path: &Path, scale: f64| -> Result<Vec<(f64, f64)>> {
         let rows = table::rows(&read(path)?, &path.display().to_string())?;
         Ok(rows.into_iter().map(|(k, v)| (k, v * scale)).collect())
@@ -124,7 +124,7 @@ fn material(t: &Tables) -> Result<Material> {
 }
 
 /// The measured series in °C.
-fn measured(p: &Probes) -> Result<probes::Series> {
+pub(crate) fn measured(p: &Probes) -> Result<probes::Series> {
     let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
     let file = p.file.display().to_string();
     let mut s = probes::series(&read(&p.file)?, &file, p.time_column, &columns)?;
@@ -137,14 +137,14 @@ fn measured(p: &Probes) -> Result<probes::Series> {
 }
 
 /// The measured series' shortest step: the model keeps its probes at least that often.
-fn sampling_interval(t_s: &[f64]) -> f64 {
+pub(crate) fn sampling_interval(t_s: &[f64]) -> f64 {
     t_s.windows(2)
         .map(|w| w[1] - w[0])
         .fold(f64::INFINITY, f64::min)
         .min(1.0)
 }
 
-fn compare(
+pub(crate) fn compare(
     p: &Probes,
     m: &probes::Series,
     traces: &[thermal::run::ProbeTrace],
@@ -167,7 +167,7 @@ fn compare(
 }
 
 /// RMS over every sample of every probe in the window, and how many.
-fn overall(c: &[Compared]) -> Option<(f64, usize)> {
+pub(crate) fn overall(c: &[Compared]) -> Option<(f64, usize)> {
     let (sq, n) = c
         .iter()
         .filter_map(|c| c.agreement.as_ref())
@@ -177,7 +177,7 @@ fn overall(c: &[Compared]) -> Option<(f64, usize)> {
     (n > 0).then(|| ((sq / n as f64).sqrt(), n))
 }
 
-fn probes_csv(c: &[Compared]) -> String {
+pub(crate) fn probes_csv(c: &[Compared]) -> String {
     let mut out = String::from("probe,t_s,measured_c,predicted_c\n");
     for p in c {
         for (t, m, pr) in &p.samples {

@@ -34,6 +34,7 @@
 //! ```
 
 pub mod beads;
+pub mod calibrate;
 pub mod deposition;
 pub mod dwell;
 pub mod params;

@@ -363,6 +363,7 @@ fn stretch(points: &[PointRecord], a: usize, z: usize) -> String {
 }
 
 /// "3–5, 9" from ascending numbers.
+#[cfg(feature = "recording")]
 pub(super) fn ranges(v: &[usize]) -> String {
     runs(v)
         .iter()

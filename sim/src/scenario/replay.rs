@@ -21,6 +21,7 @@ pub struct RawReplay {
     pub probes: Option<RawProbes>,
     #[serde(default)]
     pub compare: RawCompare,
+    pub calibrate: Option<RawCalibrate>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -97,6 +98,81 @@ pub struct RawCompare {
     pub window_s: Option<[f64; 2]>,
 }
 
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCalibrate {
+    /// Up to three of "efficiency", "convection_w_m2k", "emissivity", "table_contact_w_m2k",
+    /// each with its search range.
+    pub parameters: Vec<RawParameter>,
+    pub fit_s: Option<[f64; 2]>,
+    pub holdout_s: Option<[f64; 2]>,
+    #[serde(default = "sixteen")]
+    pub max_runs: usize,
+}
+
+fn sixteen() -> usize {
+    16
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawParameter {
+    pub name: String,
+    pub low: f64,
+    pub high: f64,
+}
+
+/// A parameter a calibration may fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Parameter {
+    Efficiency,
+    Convection,
+    Emissivity,
+    TableContact,
+}
+
+impl Parameter {
+    pub const ALL: [Parameter; 4] = [
+        Parameter::Efficiency,
+        Parameter::Convection,
+        Parameter::Emissivity,
+        Parameter::TableContact,
+    ];
+
+    /// Its key, as in the scenario's sections.
+    pub fn key(self) -> &'static str {
+        match self {
+            Parameter::Efficiency => "efficiency",
+            Parameter::Convection => "convection_w_m2k",
+            Parameter::Emissivity => "emissivity",
+            Parameter::TableContact => "table_contact_w_m2k",
+        }
+    }
+
+    /// The widest range it may be searched over.
+    fn limits(self) -> [f64; 2] {
+        match self {
+            Parameter::Efficiency | Parameter::Emissivity => [0.01, 1.0],
+            Parameter::Convection | Parameter::TableContact => [0.0, 10_000.0],
+        }
+    }
+}
+
+/// A parameter to fit and its range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fitted {
+    pub parameter: Parameter,
+    pub range: crate::pipeline::calibrate::Range,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibrate {
+    pub parameters: Vec<Fitted>,
+    pub fit_s: Option<[f64; 2]>,
+    pub holdout_s: Option<[f64; 2]>,
+    pub max_runs: usize,
+}
+
 /// A probe as the command uses it: where it is (m) and which column it reads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Probe {
@@ -137,6 +213,7 @@ pub struct ReplayScenario {
     pub thermal: ThermalSettings,
     pub probes: Option<Probes>,
     pub window_s: Option<[f64; 2]>,
+    pub calibrate: Option<Calibrate>,
     pub raw: RawReplay,
 }
 
@@ -196,6 +273,10 @@ impl ReplayScenario {
                 .map(|p| probes(p, &c, base))
                 .transpose()?,
             window_s: window(&raw.compare, &c)?,
+            calibrate: match &raw.calibrate {
+                Some(k) => Some(calibrate(k, &raw, &thermal_start(&raw), &c)?),
+                None => None,
+            },
             raw,
         })
     }
@@ -307,6 +388,108 @@ fn probes(p: &RawProbes, c: &Checker, base: &Path) -> Result<Probes> {
     })
 }
 
+/// The scenario's own values of the parameters a calibration may fit, where it starts.
+fn thermal_start(raw: &RawReplay) -> [f64; 4] {
+    [
+        raw.process.efficiency,
+        raw.thermal.convection_w_m2k,
+        raw.thermal.emissivity,
+        raw.thermal.table_contact_w_m2k,
+    ]
+}
+
+fn calibrate(
+    k: &RawCalibrate,
+    raw: &RawReplay,
+    start: &[f64; 4],
+    c: &Checker,
+) -> Result<Calibrate> {
+    if raw.probes.is_none() {
+        return Err(c.fail_text(
+            "calibrate",
+            "parameters",
+            "parameters given, but no [probes] to fit them to",
+        ));
+    }
+    if k.parameters.is_empty() || k.parameters.len() > 3 {
+        return Err(c.fail(
+            "calibrate",
+            "parameters",
+            format!("{} parameters", k.parameters.len()),
+            "one to three",
+        ));
+    }
+    let mut out: Vec<Fitted> = Vec::new();
+    for p in &k.parameters {
+        let Some(at) = Parameter::ALL.iter().position(|q| q.key() == p.name) else {
+            return Err(c.fail(
+                "calibrate",
+                "parameters",
+                format!("\"{}\"", p.name),
+                "\"efficiency\", \"convection_w_m2k\", \"emissivity\" or \"table_contact_w_m2k\"",
+            ));
+        };
+        let parameter = Parameter::ALL[at];
+        let [lo, hi] = parameter.limits();
+        let good = p.low.is_finite()
+            && p.high.is_finite()
+            && lo <= p.low
+            && p.low < p.high
+            && p.high <= hi;
+        if !good
+            || !(p.low..=p.high).contains(&start[at])
+            || out.iter().any(|f| f.parameter == parameter)
+        {
+            return Err(c.fail(
+                "calibrate",
+                "parameters",
+                format!("{} in [{}, {}] from {}", p.name, p.low, p.high, start[at]),
+                &format!(
+                    "a range within [{lo}, {hi}] holding the scenario's own value, each \
+                     parameter once"
+                ),
+            ));
+        }
+        out.push(Fitted {
+            parameter,
+            range: crate::pipeline::calibrate::Range {
+                low: p.low,
+                high: p.high,
+            },
+        });
+    }
+    if k.max_runs < 2 * out.len() + 2 {
+        return Err(c.fail(
+            "calibrate",
+            "max_runs",
+            k.max_runs,
+            &format!(
+                "at least {} (a step and the Jacobian at its end)",
+                2 * out.len() + 2
+            ),
+        ));
+    }
+    let windows = [("fit_s", k.fit_s), ("holdout_s", k.holdout_s)];
+    for (key, w) in windows {
+        if let Some([a, b]) = w
+            && !(a.is_finite() && b.is_finite() && b > a)
+        {
+            return Err(c.fail(
+                "calibrate",
+                key,
+                format!("[{a}, {b}]"),
+                "[start, end] in seconds, end after start",
+            ));
+        }
+    }
+    Ok(Calibrate {
+        parameters: out,
+        fit_s: k.fit_s,
+        holdout_s: k.holdout_s,
+        max_runs: k.max_runs,
+    })
+}
+
 fn window(w: &RawCompare, c: &Checker) -> Result<Option<[f64; 2]>> {
     match w.window_s {
         Some([a, b]) if !(a.is_finite() && b.is_finite() && b > a) => Err(c.fail(
@@ -367,5 +550,33 @@ mod tests {
             e.message
         );
         assert_eq!(e.exit_code(), 2);
+    }
+
+    #[test]
+    fn calibration_parameters_are_checked() {
+        let probes = "[probes]\nfile = \"ir.csv\"\nunit = \"K\"\n\
+            points = [{ name = \"a\", column = 1, x_mm = 0.0, y_mm = 0.0, z_mm = 1.0 }]\n";
+        let with = |cal: &str| format!("{GOOD}{probes}[calibrate]\n{cal}");
+        let ok = with("parameters = [{ name = \"efficiency\", low = 0.2, high = 0.9 }]\n");
+        let s = ReplayScenario::parse(&ok, "r.toml", Path::new(".")).unwrap();
+        assert_eq!(s.calibrate.unwrap().parameters.len(), 1);
+        for (cal, needle) in [
+            (
+                "parameters = [{ name = \"density\", low = 1.0, high = 2.0 }]",
+                "calibrate.parameters = \"density\"",
+            ),
+            (
+                "parameters = [{ name = \"efficiency\", low = 0.6, high = 0.9 }]",
+                "efficiency in [0.6, 0.9] from 0.5",
+            ),
+            ("parameters = []", "0 parameters; expected one to three"),
+            (
+                "parameters = [{ name = \"efficiency\", low = 0.2, high = 0.9 }]\nmax_runs = 2",
+                "calibrate.max_runs = 2",
+            ),
+        ] {
+            let e = ReplayScenario::parse(&with(cal), "r.toml", Path::new(".")).unwrap_err();
+            assert!(e.message.contains(needle), "{needle}: {}", e.message);
+        }
     }
 }

@@ -1,0 +1,277 @@
+//! `waamtwin calibrate REPLAY.toml -o DIR [--fit T0:T1] [--holdout T0:T1]`: fit up to three of
+//! the replay's parameters (efficiency, convection, emissivity, table contact) to its probes by
+//! least squares over the fit window, and judge the fitted model on the held-out window.
+//! calibration.json, probes.csv (the fitted model at every sample), probes.png.
+//!
+//! A fit run stops at the end of the fit window: the model is the same up to there whatever
+//! comes after, so a fit over the first half of a build costs half a build per run. The two
+//! full runs (before and after) give the held-out agreement.
+
+use super::replay::{compare, material, measured, overall, probes_csv, read, sampling_interval};
+use crate::error::{Error, Result};
+use crate::measured::{probes::Series, toolpath};
+use crate::output::RunDir;
+use crate::pipeline::calibrate::{self, Range, Settings};
+use crate::pipeline::deposition::heat_model_of;
+use crate::pipeline::replay::{self, Laying};
+use crate::progress::Stage;
+use crate::scenario::ThermalSettings;
+use crate::scenario::replay::{Parameter, ReplayScenario};
+use serde_json::json;
+use std::path::Path;
+use std::time::Instant;
+use thermal::HeatRun;
+use thermal::material::Material;
+use thermal::run::ProbeTrace;
+
+/// What a run needs besides the parameters being fitted.
+struct Replay<'a> {
+    s: &'a ReplayScenario,
+    path: Vec<toolpath::Waypoint>,
+    material: Material,
+    every_s: f64,
+}
+
+impl Replay<'_> {
+    /// The scenario's laying and thermal settings with `values` of `parameters` put in.
+    fn with(&self, parameters: &[Parameter], values: &[f64]) -> (Laying, ThermalSettings) {
+        let (mut l, mut t) = (self.s.laying.clone(), self.s.thermal.clone());
+        for (p, &v) in parameters.iter().zip(values) {
+            match p {
+                Parameter::Efficiency => l.efficiency = v,
+                Parameter::Convection => t.convection_w_m2k = v,
+                Parameter::Emissivity => t.emissivity = v,
+                Parameter::TableContact => t.table_contact_w_m2k = v,
+            }
+        }
+        (l, t)
+    }
+
+    /// The probes' traces from the start of the build until `until_s`.
+    fn run(
+        &self,
+        parameters: &[Parameter],
+        values: &[f64],
+        until_s: f64,
+    ) -> Result<Vec<ProbeTrace>> {
+        let (laying, thermal) = self.with(parameters, values);
+        let mut deps = replay::deposits(&self.path, &laying);
+        deps.retain(|d| d.arc_start() < until_s);
+        let mut model = heat_model_of(self.material.clone(), &thermal, &deps, vec![], vec![]);
+        let probes = self.s.probes.as_ref().map_or(Vec::new(), |p| {
+            p.points.iter().map(|q| q.position_m).collect()
+        });
+        model.set_probes(probes, self.every_s);
+        let mut run = model.start(&deps)?;
+        thermal::run::replay(&mut run, &deps)?;
+        if until_s > run.now() {
+            run.cool(until_s - run.now())?;
+        }
+        Ok(run.finish().probes)
+    }
+}
+
+/// The measured samples (probe, index) inside `window` where the first run predicts too.
+fn fit_samples(m: &Series, traces: &[ProbeTrace], window: [f64; 2]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for (k, (values, trace)) in m.values.iter().zip(traces).enumerate() {
+        for (j, (&t, v)) in m.t_s.iter().zip(values).enumerate() {
+            let inside = t >= window[0] && t <= window[1];
+            if inside && v.is_some() && replay::pair(&[t], &[*v], trace).len() == 1 {
+                out.push((k, j));
+            }
+        }
+    }
+    out
+}
+
+/// Predicted − measured at each fit sample (°C); 0 where the model does not read.
+fn residuals(m: &Series, traces: &[ProbeTrace], samples: &[(usize, usize)]) -> Vec<f64> {
+    samples
+        .iter()
+        .map(|&(k, j)| {
+            let (t, v) = (m.t_s[j], m.values[k][j]);
+            replay::pair(&[t], &[v], &traces[k])
+                .first()
+                .map_or(0.0, |s| s.2 - s.1)
+        })
+        .collect()
+}
+
+/// Samples a second apart per probe: what the intervals count as independent (an IR camera at
+/// 12.5 Hz sees the same cooling curve a dozen times a second).
+fn independent(m: &Series, samples: &[(usize, usize)]) -> usize {
+    let mut seconds: Vec<(usize, i64)> = samples
+        .iter()
+        .map(|&(k, j)| (k, m.t_s[j].floor() as i64))
+        .collect();
+    seconds.dedup();
+    seconds.len()
+}
+
+/// "T0:T1" in seconds.
+pub fn window(text: &str, flag: &str) -> Result<[f64; 2]> {
+    let parsed = text
+        .split_once(':')
+        .and_then(|(a, b)| Some([a.trim().parse::<f64>().ok()?, b.trim().parse::<f64>().ok()?]));
+    match parsed {
+        Some([a, b]) if a.is_finite() && b.is_finite() && b > a => Ok([a, b]),
+        _ => Err(Error::input(format!(
+            "{flag} {text}; expected T0:T1 in seconds of build time, T1 after T0"
+        ))),
+    }
+}
+
+pub fn run(
+    scenario: &Path,
+    out: &Path,
+    fit_flag: Option<[f64; 2]>,
+    holdout_flag: Option<[f64; 2]>,
+) -> Result<String> {
+    let s = ReplayScenario::load(scenario)?;
+    let name = scenario.display();
+    let Some(cal) = &s.calibrate else {
+        return Err(Error::input(format!(
+            "{name}: no [calibrate] section; expected the parameters to fit"
+        )));
+    };
+    let Some(p) = &s.probes else {
+        return Err(Error::input(format!(
+            "{name}: no [probes]; a calibration needs measurements"
+        )));
+    };
+    let path = toolpath::event_series(&read(&s.toolpath)?, &s.toolpath.display().to_string())?;
+    let m = measured(p)?;
+    let end_s = path
+        .last()
+        .map_or(0.0, |w| w.t_s)
+        .max(*m.t_s.last().unwrap_or(&0.0));
+    let fit_w = fit_flag.or(cal.fit_s).unwrap_or([0.0, end_s / 2.0]);
+    let hold_w = holdout_flag
+        .or(cal.holdout_s)
+        .unwrap_or([end_s / 2.0, end_s]);
+    let r = Replay {
+        s: &s,
+        path,
+        material: material(&s.material)?,
+        every_s: sampling_interval(&m.t_s),
+    };
+    let mut dir = RunDir::create(out)?;
+    let names: Vec<Parameter> = cal.parameters.iter().map(|c| c.parameter).collect();
+    let ranges: Vec<Range> = cal.parameters.iter().map(|c| c.range).collect();
+    let start: Vec<f64> = {
+        let (l, t) = (&s.laying, &s.thermal);
+        names
+            .iter()
+            .map(|p| match p {
+                Parameter::Efficiency => l.efficiency,
+                Parameter::Convection => t.convection_w_m2k,
+                Parameter::Emissivity => t.emissivity,
+                Parameter::TableContact => t.table_contact_w_m2k,
+            })
+            .collect()
+    };
+    let clock = Instant::now();
+    let stage = Stage::start("calibrating: each step a run of the heat model");
+    let first = r.run(&names, &start, fit_w[1])?;
+    let samples = fit_samples(&m, &first, fit_w);
+    if samples.is_empty() {
+        return Err(Error::input(format!(
+            "{name}: no probe reads inside the fit window {fit_w:?} s; expected some samples there"
+        )));
+    }
+    let settings = Settings {
+        max_runs: cal.max_runs,
+        independent: independent(&m, &samples),
+        ..Settings::default()
+    };
+    let mut seen_first = false;
+    let fit = calibrate::fit(&start, &ranges, settings, |values| {
+        // The first evaluation is the run made above.
+        let traces = match seen_first {
+            false => {
+                seen_first = true;
+                first.clone()
+            }
+            true => r.run(&names, values, fit_w[1])?,
+        };
+        Ok::<_, Error>(residuals(&m, &traces, &samples))
+    })?;
+    let before = r.run(&names, &start, end_s)?;
+    let after = r.run(&names, &fit.values, end_s)?;
+    drop(stage);
+    let wall_s = clock.elapsed().as_secs_f64();
+    let judge = |traces: &[ProbeTrace], w: [f64; 2]| overall(&compare(p, &m, traces, w));
+    let [fit_before, fit_after, hold_before, hold_after] = [
+        judge(&before, fit_w),
+        judge(&after, fit_w),
+        judge(&before, hold_w),
+        judge(&after, hold_w),
+    ];
+    let rms = |o: Option<(f64, usize)>| o.map(|o| o.0);
+    let compared = compare(p, &m, &after, [0.0, end_s]);
+    dir.write("probes.csv", probes_csv(&compared).as_bytes())?;
+    let parameters: Vec<serde_json::Value> = cal
+        .parameters
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            json!({
+                "name": c.parameter.key(),
+                "start": start[i],
+                "value": fit.values[i],
+                "low": c.range.low,
+                "high": c.range.high,
+                "ci95": fit.ci95[i],
+                "sensitivity_c_per_unit": fit.sensitivity[i],
+            })
+        })
+        .collect();
+    dir.write_json(
+        "calibration.json",
+        &json!({
+            "parameters": parameters,
+            "fit_s": fit_w,
+            "holdout_s": hold_w,
+            "rms_fit_c": rms(fit_after),
+            "rms_fit_before_c": rms(fit_before),
+            "rms_holdout_c": rms(hold_after),
+            "rms_holdout_before_c": rms(hold_before),
+            "fit_samples": samples.len(),
+            "independent_samples": settings.independent,
+            "runs": fit.runs + 2,
+            "iterations": fit.iterations,
+            "wall_s": wall_s,
+        }),
+    )?;
+    #[cfg(feature = "recording")]
+    {
+        let series: Vec<(&str, &[replay::Sample])> = compared
+            .iter()
+            .map(|c| (c.name.as_str(), c.samples.as_slice()))
+            .collect();
+        let title = format!(
+            "{} calibrated",
+            scenario
+                .file_stem()
+                .map_or("replay".into(), |n| n.to_string_lossy())
+        );
+        crate::record::probe_plot(&mut dir, "probes.png", &title, &series, Some(fit_w))?;
+    }
+    dir.finish("calibrate", s.to_json())?;
+    let values: Vec<String> = names
+        .iter()
+        .zip(&fit.values)
+        .map(|(p, v)| format!("{} {v:.3}", p.key()))
+        .collect();
+    let f = |o: Option<f64>| o.map_or("-".into(), |v| format!("{v:.0}"));
+    Ok(format!(
+        "{}; RMS over the fit window {} → {} °C, held out {} → {} °C; {} runs, {wall_s:.0} s",
+        values.join(", "),
+        f(rms(fit_before)),
+        f(rms(fit_after)),
+        f(rms(hold_before)),
+        f(rms(hold_after)),
+        fit.runs + 2
+    ))
+}
