@@ -151,3 +151,41 @@ fn a_bad_window_is_named() {
     ]);
     assert_input_error(&out, &["--fit 400:100", "T1 after T0"]);
 }
+
+/// The ORNL pad replayed from its event series at the logged power: every thermocouple reads
+/// all build long, and the agreement is what was measured on 2026-11-22 (RMS 55 °C, the model
+/// hotter than the plate by 47 °C on average with the 150 mm plate assumed; docs/PHYSICS.md).
+#[test]
+fn ornl_pad_against_its_thermocouples() {
+    if validation_data().is_none() {
+        return;
+    }
+    let out = scratch("replay_ornl");
+    let scenario = root().join("scenarios/ornl_srp_pad.toml");
+    let run = waamtwin(&[
+        "replay",
+        scenario.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+    // 4 layers × 10 beads × 500 mm in 2 mm deposits, and the 4.5 mm steps between beads.
+    assert!(
+        (10_000..10_200).contains(&r["deposits"].as_u64().unwrap()),
+        "{r}"
+    );
+    let probes = r["probes"].as_array().unwrap();
+    assert_eq!(probes.len(), 10);
+    for p in probes {
+        // One reading a second from the first arc to the end of the log.
+        assert!(p["samples"].as_u64().unwrap() >= 3300, "{p}");
+    }
+    let rms = r["rms_c"].as_f64().unwrap();
+    assert!((30.0..80.0).contains(&rms), "RMS {rms} °C");
+}

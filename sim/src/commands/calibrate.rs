@@ -7,7 +7,9 @@
 //! comes after, so a fit over the first half of a build costs half a build per run. The two
 //! full runs (before and after) give the held-out agreement.
 
-use super::replay::{compare, material, measured, overall, probes_csv, read, sampling_interval};
+use super::replay::{
+    compare, material, measured, overall, probes_csv, sampling_interval, waypoints,
+};
 use crate::error::{Error, Result};
 use crate::measured::{probes::Series, toolpath};
 use crate::output::RunDir;
@@ -140,7 +142,7 @@ pub fn run(
             "{name}: no [probes]; a calibration needs measurements"
         )));
     };
-    let path = toolpath::event_series(&read(&s.toolpath)?, &s.toolpath.display().to_string())?;
+    let path = waypoints(&s)?;
     let m = measured(p)?;
     let end_s = path
         .last()

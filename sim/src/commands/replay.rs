@@ -3,12 +3,12 @@
 //! (agreement per probe and over all), probes.png (measured and predicted against time).
 
 use crate::error::{Error, Result};
-use crate::measured::{probes, table, toolpath};
+use crate::measured::{machine_log, probes, table, toolpath};
 use crate::output::RunDir;
 use crate::pipeline::deposition::heat_model_of;
 use crate::pipeline::replay::{self, Agreement, Sample};
 use crate::progress::Stage;
-use crate::scenario::replay::{Probes, ReplayScenario, Tables};
+use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
 use serde_json::json;
 use std::fmt::Write;
 use std::path::Path;
@@ -25,7 +25,7 @@ pub struct Compared {
 
 pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     let s = ReplayScenario::load(scenario)?;
-    let path = toolpath::event_series(&read(&s.toolpath)?, &s.toolpath.display().to_string())?;
+    let path = waypoints(&s)?;
     let deps = replay::deposits(&path, &s.laying);
     if deps.is_empty() {
         return Err(Error::input(format!(
@@ -105,7 +105,30 @@ pub(crate) fn read(path: &Path) -> Result<String> {
         .map_err(|e| Error::input(format!("cannot read {}: {e}", path.display())))
 }
 
-pub(crate) fn material(t: &Tables) -> Result<Material> {
+/// The toolpath as waypoints, from its file in its format.
+pub(crate) fn waypoints(s: &ReplayScenario) -> Result<Vec<toolpath::Waypoint>> {
+    let (text, file) = (read(&s.toolpath)?, s.toolpath.display().to_string());
+    let mut path = match s.format {
+        ToolpathFormat::Events => toolpath::event_series(&text, &file)?,
+        ToolpathFormat::MachineLog => {
+            machine_log::waypoints(&text, &file, &machine_log::Columns::default())?
+        }
+    };
+    if s.flag_starts {
+        toolpath::flags_start_segments(&mut path);
+    }
+    for w in &mut path {
+        w.position_mm[2] += s.z_offset_mm;
+        w.t_s += s.time_offset_s;
+    }
+    Ok(path)
+}
+
+pub(crate) fn material(spec: &MaterialSpec) -> Result<Material> {
+    let t = match spec {
+        MaterialSpec::G3Si => return Ok(Material::g3si()),
+        MaterialSpec::Tables(t) => t,
+    };
     let load = |path: &Path, scale: f64| -> Result<Vec<(f64, f64)>> {
         let rows = table::rows(&read(path)?, &path.display().to_string())?;
         Ok(rows.into_iter().map(|(k, v)| (k, v * scale)).collect())

@@ -91,9 +91,34 @@ pub fn event_series(text: &str, file: &str) -> Result<Vec<Waypoint>> {
     Ok(out)
 }
 
+/// Re-read flags written for the segment starting at each waypoint (the event-series
+/// convention: a power holds from its time on) as this module's, for the segment ending there.
+pub fn flags_start_segments(path: &mut [Waypoint]) {
+    for i in (1..path.len()).rev() {
+        (path[i].on, path[i].power_w) = (path[i - 1].on, path[i - 1].power_w);
+    }
+    if let Some(first) = path.first_mut() {
+        (first.on, first.power_w) = (false, None);
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::event_series;
+    use super::{event_series, flags_start_segments};
+
+    #[test]
+    fn a_flag_from_here_on_moves_to_the_segment_it_starts() {
+        let mut w = event_series(
+            "0,0,0,0,_POWER_\n74,0,500,0,0\n194,0,500,2.31,_POWER_\n",
+            "e.csv",
+        )
+        .unwrap();
+        flags_start_segments(&mut w);
+        assert_eq!(
+            w.iter().map(|w| w.on).collect::<Vec<_>>(),
+            [false, true, false]
+        );
+    }
 
     #[test]
     fn reads_the_gamma_form_and_the_ornl_form() {

@@ -28,11 +28,26 @@ pub struct RawReplay {
 #[serde(deny_unknown_fields)]
 pub struct RawToolpath {
     pub file: String,
-    /// "events": `t_s, x_mm, y_mm, z_mm, on`.
+    /// "events": `t_s, x_mm, y_mm, z_mm, on`; "machine_log": a logger's CSV with `t_s`,
+    /// `weld_voltage_v`, `weld_current_a`, `weld_on`, `x_mm`, `y_mm`, `z_mm` columns.
     #[serde(default = "events")]
     pub format: String,
     #[serde(default = "one")]
     pub deposit_mm: f64,
+    /// Added to every z of the file: a logged torch height is not the bead's top.
+    #[serde(default)]
+    pub z_offset_mm: f64,
+    /// Added to every time of the file: puts it on the probes' clock.
+    #[serde(default)]
+    pub time_offset_s: f64,
+    /// Events: whether a waypoint's `on` is the segment's ending there ("ending_here", GAMMA's)
+    /// or starting there ("starting_here", the event-series convention ORNL's file follows).
+    #[serde(default = "ending_here")]
+    pub on_flag: String,
+}
+
+fn ending_here() -> String {
+    "ending_here".into()
 }
 
 fn events() -> String {
@@ -53,21 +68,33 @@ pub struct RawLaying {
     pub layer_height_mm: f64,
 }
 
-/// A material from property tables (two columns: T in K, value; comma or space separated).
-#[derive(Debug, Clone, Deserialize, Serialize)]
+/// A preset ("G3Si") or a material from property tables (two columns: T in K, value; comma or
+/// space separated), which then needs every key but `preset`.
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawTables {
-    pub name: String,
-    pub density_kg_m3: f64,
-    pub specific_heat_table: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub preset: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub density_kg_m3: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub specific_heat_table: Option<String>,
     /// "J/(kg K)" or "J/(g K)".
-    pub specific_heat_unit: String,
-    pub conductivity_table: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub specific_heat_unit: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conductivity_table: Option<String>,
     /// "W/(m K)" or "W/(mm K)".
-    pub conductivity_unit: String,
-    pub solidus_c: f64,
-    pub liquidus_c: f64,
-    pub latent_j_kg: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conductivity_unit: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solidus_c: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub liquidus_c: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub latent_j_kg: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -189,6 +216,21 @@ pub struct Probes {
     pub points: Vec<Probe>,
 }
 
+/// How the toolpath file is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ToolpathFormat {
+    Events,
+    MachineLog,
+}
+
+/// Where the replay's material comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MaterialSpec {
+    /// G3Si (ER70S-6 class) on a low-carbon steel plate: `thermal::material::Material::g3si`.
+    G3Si,
+    Tables(Tables),
+}
+
 /// The material's tables, resolved.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tables {
@@ -208,8 +250,13 @@ pub struct Tables {
 #[derive(Debug, Clone)]
 pub struct ReplayScenario {
     pub toolpath: PathBuf,
+    pub format: ToolpathFormat,
+    pub z_offset_mm: f64,
+    pub time_offset_s: f64,
+    /// An event's `on` holds for the segment starting at it.
+    pub flag_starts: bool,
     pub laying: Laying,
-    pub material: Tables,
+    pub material: MaterialSpec,
     pub thermal: ThermalSettings,
     pub probes: Option<Probes>,
     pub window_s: Option<[f64; 2]>,
@@ -238,14 +285,34 @@ impl ReplayScenario {
         c.positive("process", "bead_width_mm", p.bead_width_mm, 100.0)?;
         c.positive("process", "layer_height_mm", p.layer_height_mm, 50.0)?;
         c.positive("toolpath", "deposit_mm", raw.toolpath.deposit_mm, 100.0)?;
-        if raw.toolpath.format != "events" {
-            return Err(c.fail(
-                "toolpath",
-                "format",
-                format!("\"{}\"", raw.toolpath.format),
-                "\"events\" (t_s, x_mm, y_mm, z_mm, on)",
-            ));
-        }
+        c.range(
+            "toolpath",
+            "z_offset_mm",
+            raw.toolpath.z_offset_mm,
+            -1000.0,
+            1000.0,
+            "a height in [-1000, 1000] mm",
+        )?;
+        c.range(
+            "toolpath",
+            "time_offset_s",
+            raw.toolpath.time_offset_s,
+            -1e7,
+            1e7,
+            "a time in [-1e7, 1e7] s",
+        )?;
+        let format = match raw.toolpath.format.as_str() {
+            "events" => ToolpathFormat::Events,
+            "machine_log" => ToolpathFormat::MachineLog,
+            other => {
+                return Err(c.fail(
+                    "toolpath",
+                    "format",
+                    format!("\"{other}\""),
+                    "\"events\" (t_s, x_mm, y_mm, z_mm, on) or \"machine_log\"",
+                ));
+            }
+        };
         let thermal = super::thermal(&raw.thermal, p.bead_width_mm, &c)?;
         if thermal.model != ThermalModel::Voxel {
             return Err(c.fail(
@@ -258,6 +325,21 @@ impl ReplayScenario {
         }
         Ok(ReplayScenario {
             toolpath: base.join(&raw.toolpath.file),
+            format,
+            z_offset_mm: raw.toolpath.z_offset_mm,
+            time_offset_s: raw.toolpath.time_offset_s,
+            flag_starts: match raw.toolpath.on_flag.as_str() {
+                "ending_here" => false,
+                "starting_here" => true,
+                other => {
+                    return Err(c.fail(
+                        "toolpath",
+                        "on_flag",
+                        format!("\"{other}\""),
+                        "\"ending_here\" or \"starting_here\"",
+                    ));
+                }
+            },
             laying: Laying {
                 power_w: p.power_w,
                 efficiency: p.efficiency,
@@ -286,7 +368,48 @@ impl ReplayScenario {
     }
 }
 
-fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<Tables> {
+fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
+    if let Some(p) = &m.preset {
+        let others = m.name.is_some()
+            || m.density_kg_m3.is_some()
+            || m.specific_heat_table.is_some()
+            || m.conductivity_table.is_some();
+        return match (p.as_str(), others) {
+            ("G3Si", false) => Ok(MaterialSpec::G3Si),
+            ("G3Si", true) => Err(c.fail_text(
+                "material",
+                "preset",
+                "preset = \"G3Si\" with table keys beside it; expected one or the other",
+            )),
+            (other, _) => Err(c.fail(
+                "material",
+                "preset",
+                format!("\"{other}\""),
+                "\"G3Si\", or tables instead of a preset",
+            )),
+        };
+    }
+    let need = |key: &str| {
+        c.fail_text(
+            "material",
+            key,
+            format!("{key} is missing; expected a preset or every table key"),
+        )
+    };
+    let text = |v: &Option<String>, key: &str| v.clone().ok_or_else(|| need(key));
+    let number = |v: Option<f64>, key: &str| v.ok_or_else(|| need(key));
+    let m = Resolved {
+        name: text(&m.name, "name")?,
+        density_kg_m3: number(m.density_kg_m3, "density_kg_m3")?,
+        specific_heat_table: text(&m.specific_heat_table, "specific_heat_table")?,
+        specific_heat_unit: text(&m.specific_heat_unit, "specific_heat_unit")?,
+        conductivity_table: text(&m.conductivity_table, "conductivity_table")?,
+        conductivity_unit: text(&m.conductivity_unit, "conductivity_unit")?,
+        solidus_c: number(m.solidus_c, "solidus_c")?,
+        liquidus_c: number(m.liquidus_c, "liquidus_c")?,
+        latent_j_kg: number(m.latent_j_kg, "latent_j_kg")?,
+    };
+    let m = &m;
     c.positive("material", "density_kg_m3", m.density_kg_m3, 30_000.0)?;
     c.range(
         "material",
@@ -336,7 +459,7 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<Tables> {
             ));
         }
     };
-    Ok(Tables {
+    Ok(MaterialSpec::Tables(Tables {
         name: m.name.clone(),
         density_kg_m3: m.density_kg_m3,
         specific_heat: base.join(&m.specific_heat_table),
@@ -346,7 +469,20 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<Tables> {
         solidus_k: m.solidus_c + KELVIN,
         liquidus_k: m.liquidus_c + KELVIN,
         latent_j_kg: m.latent_j_kg,
-    })
+    }))
+}
+
+/// The table keys once all are there.
+struct Resolved {
+    name: String,
+    density_kg_m3: f64,
+    specific_heat_table: String,
+    specific_heat_unit: String,
+    conductivity_table: String,
+    conductivity_unit: String,
+    solidus_c: f64,
+    liquidus_c: f64,
+    latent_j_kg: f64,
 }
 
 fn probes(p: &RawProbes, c: &Checker, base: &Path) -> Result<Probes> {
@@ -517,8 +653,21 @@ mod tests {
     fn a_good_scenario_resolves_its_files_and_units() {
         let s = ReplayScenario::parse(GOOD, "r.toml", Path::new("/data")).unwrap();
         assert_eq!(s.toolpath, Path::new("/data/p.csv"));
-        assert_eq!(s.material.specific_heat_scale, 1e3);
-        assert_eq!(s.material.conductivity_scale, 1e3);
+        let super::MaterialSpec::Tables(t) = &s.material else {
+            panic!("tables expected")
+        };
+        assert_eq!(t.specific_heat_scale, 1e3);
+        assert_eq!(t.conductivity_scale, 1e3);
+        let preset = GOOD.replace("name = \"IN718\"", "preset = \"G3Si\"\nname = \"IN718\"");
+        let e = ReplayScenario::parse(&preset, "r.toml", Path::new(".")).unwrap_err();
+        assert!(e.message.contains("one or the other"), "{}", e.message);
+        let missing = GOOD.replace("latent_j_kg = 2.7e5\n", "");
+        let e = ReplayScenario::parse(&missing, "r.toml", Path::new(".")).unwrap_err();
+        assert!(
+            e.message.contains("latent_j_kg is missing"),
+            "{}",
+            e.message
+        );
         assert!((s.laying.width_m - 2e-3).abs() < 1e-15);
         assert!(s.probes.is_none());
     }
