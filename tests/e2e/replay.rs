@@ -59,6 +59,13 @@ fn gamma_wall_against_its_ir_camera() {
         .fold(f64::NAN, f64::max);
     assert!(top > 1300.0, "ir_point_15 peaks at {top} °C");
     assert!(out.join("probes.png").is_file());
+    // Pass by pass: 60 tracks; the model's peaks low on average (−187 °C measured).
+    assert_eq!(probes[0]["passes"], 60);
+    let peak_bias = probes[14]["peak"]["bias_c"].as_f64().unwrap();
+    assert!((-400.0..0.0).contains(&peak_bias), "{peak_bias}");
+    let (head, rows) = read_csv(&out.join("passes.csv"));
+    assert_eq!(head[0..3], ["probe", "pass", "start_s"]);
+    assert_eq!(rows.len(), 29 * 60);
 }
 
 #[test]
@@ -188,4 +195,42 @@ fn ornl_pad_against_its_thermocouples() {
     }
     let rms = r["rms_c"].as_f64().unwrap();
     assert!((30.0..80.0).contains(&rms), "RMS {rms} °C");
+}
+
+/// ORNL's G-code and its event series describe the same build: the same arc-on time per layer
+/// and the same end, read by two readers.
+#[test]
+fn ornl_gcode_and_event_series_agree() {
+    let Some(data) = validation_data() else {
+        return;
+    };
+    let dir = data.join("ornl_srp_waam_calibration");
+    let text = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap();
+    let dialect = sim::measured::gcode::Dialect {
+        arc_on: "M101".into(),
+        arc_off: "M103".into(),
+        feed_scale: 1.0,
+        travel_mm_s: Some(1000.0),
+    };
+    let g = sim::measured::gcode::waypoints(&text("toolpath.gcode"), "toolpath.gcode", &dialect)
+        .unwrap();
+    let mut e = sim::measured::toolpath::event_series(
+        &text("toolpath_event_series.csv"),
+        "toolpath_event_series.csv",
+    )
+    .unwrap();
+    sim::measured::toolpath::flags_start_segments(&mut e);
+    let on_time = |w: &[sim::measured::toolpath::Waypoint]| -> f64 {
+        w.windows(2)
+            .filter(|p| p[1].on)
+            .map(|p| p[1].t_s - p[0].t_s)
+            .sum()
+    };
+    // 4 layers of 10 beads at 73.9 s and 9 steps at 0.67 s.
+    let (tg, te) = (on_time(&g), on_time(&e));
+    assert!((te - 4.0 * 745.0).abs() < 5.0, "{te} s");
+    assert!((tg - te).abs() < 0.01 * te, "G-code {tg} s, events {te} s");
+    let last_on =
+        |w: &[sim::measured::toolpath::Waypoint]| w.iter().rev().find(|w| w.on).unwrap().t_s;
+    assert!((last_on(&g) - last_on(&e)).abs() < 5.0);
 }

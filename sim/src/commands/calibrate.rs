@@ -8,13 +8,12 @@
 //! full runs (before and after) give the held-out agreement.
 
 use super::replay::{
-    compare, material, measured, overall, probes_csv, sampling_interval, waypoints,
+    Replay, compare, material, measured, overall, probes_csv, sampling_interval, waypoints,
 };
 use crate::error::{Error, Result};
-use crate::measured::{probes::Series, toolpath};
+use crate::measured::probes::Series;
 use crate::output::RunDir;
 use crate::pipeline::calibrate::{self, Range, Settings};
-use crate::pipeline::deposition::heat_model_of;
 use crate::pipeline::replay::{self, Laying};
 use crate::progress::Stage;
 use crate::scenario::ThermalSettings;
@@ -22,55 +21,31 @@ use crate::scenario::replay::{Parameter, ReplayScenario};
 use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
-use thermal::HeatRun;
-use thermal::material::Material;
 use thermal::run::ProbeTrace;
 
-/// What a run needs besides the parameters being fitted.
-struct Replay<'a> {
-    s: &'a ReplayScenario,
-    path: Vec<toolpath::Waypoint>,
-    material: Material,
-    every_s: f64,
+/// The scenario's laying and thermal settings with `values` of `parameters` put in.
+fn with(s: &ReplayScenario, parameters: &[Parameter], values: &[f64]) -> (Laying, ThermalSettings) {
+    let (mut l, mut t) = (s.laying.clone(), s.thermal.clone());
+    for (p, &v) in parameters.iter().zip(values) {
+        match p {
+            Parameter::Efficiency => l.efficiency = v,
+            Parameter::Convection => t.convection_w_m2k = v,
+            Parameter::Emissivity => t.emissivity = v,
+            Parameter::TableContact => t.table_contact_w_m2k = v,
+        }
+    }
+    (l, t)
 }
 
-impl Replay<'_> {
-    /// The scenario's laying and thermal settings with `values` of `parameters` put in.
-    fn with(&self, parameters: &[Parameter], values: &[f64]) -> (Laying, ThermalSettings) {
-        let (mut l, mut t) = (self.s.laying.clone(), self.s.thermal.clone());
-        for (p, &v) in parameters.iter().zip(values) {
-            match p {
-                Parameter::Efficiency => l.efficiency = v,
-                Parameter::Convection => t.convection_w_m2k = v,
-                Parameter::Emissivity => t.emissivity = v,
-                Parameter::TableContact => t.table_contact_w_m2k = v,
-            }
-        }
-        (l, t)
-    }
-
-    /// The probes' traces from the start of the build until `until_s`.
-    fn run(
-        &self,
-        parameters: &[Parameter],
-        values: &[f64],
-        until_s: f64,
-    ) -> Result<Vec<ProbeTrace>> {
-        let (laying, thermal) = self.with(parameters, values);
-        let mut deps = replay::deposits(&self.path, &laying);
-        deps.retain(|d| d.arc_start() < until_s);
-        let mut model = heat_model_of(self.material.clone(), &thermal, &deps, vec![], vec![]);
-        let probes = self.s.probes.as_ref().map_or(Vec::new(), |p| {
-            p.points.iter().map(|q| q.position_m).collect()
-        });
-        model.set_probes(probes, self.every_s);
-        let mut run = model.start(&deps)?;
-        thermal::run::replay(&mut run, &deps)?;
-        if until_s > run.now() {
-            run.cool(until_s - run.now())?;
-        }
-        Ok(run.finish().probes)
-    }
+/// The probes' traces with `values` of `parameters`, from the start until `until_s`.
+fn traces(
+    r: &Replay,
+    parameters: &[Parameter],
+    values: &[f64],
+    until_s: f64,
+) -> Result<Vec<ProbeTrace>> {
+    let (laying, thermal) = with(r.s, parameters, values);
+    Ok(r.run(&laying, &thermal, until_s)?.1.probes)
 }
 
 /// The measured samples (probe, index) inside `window` where the first run predicts too.
@@ -175,7 +150,7 @@ pub fn run(
     };
     let clock = Instant::now();
     let stage = Stage::start("calibrating: each step a run of the heat model");
-    let first = r.run(&names, &start, fit_w[1])?;
+    let first = traces(&r, &names, &start, fit_w[1])?;
     let samples = fit_samples(&m, &first, fit_w);
     if samples.is_empty() {
         return Err(Error::input(format!(
@@ -195,15 +170,15 @@ pub fn run(
                 seen_first = true;
                 first.clone()
             }
-            true => r.run(&names, values, fit_w[1])?,
+            true => traces(&r, &names, values, fit_w[1])?,
         };
         Ok::<_, Error>(residuals(&m, &traces, &samples))
     })?;
-    let before = r.run(&names, &start, end_s)?;
-    let after = r.run(&names, &fit.values, end_s)?;
+    let before = traces(&r, &names, &start, end_s)?;
+    let after = traces(&r, &names, &fit.values, end_s)?;
     drop(stage);
     let wall_s = clock.elapsed().as_secs_f64();
-    let judge = |traces: &[ProbeTrace], w: [f64; 2]| overall(&compare(p, &m, traces, w));
+    let judge = |traces: &[ProbeTrace], w: [f64; 2]| overall(&compare(p, &m, traces, w, &[]));
     let [fit_before, fit_after, hold_before, hold_after] = [
         judge(&before, fit_w),
         judge(&after, fit_w),
@@ -211,7 +186,7 @@ pub fn run(
         judge(&after, hold_w),
     ];
     let rms = |o: Option<(f64, usize)>| o.map(|o| o.0);
-    let compared = compare(p, &m, &after, [0.0, end_s]);
+    let compared = compare(p, &m, &after, [0.0, end_s], &[]);
     dir.write("probes.csv", probes_csv(&compared).as_bytes())?;
     let parameters: Vec<serde_json::Value> = cal
         .parameters

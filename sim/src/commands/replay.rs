@@ -3,24 +3,64 @@
 //! (agreement per probe and over all), probes.png (measured and predicted against time).
 
 use crate::error::{Error, Result};
-use crate::measured::{machine_log, probes, table, toolpath};
+use crate::measured::{gcode, machine_log, probes, table, toolpath};
 use crate::output::RunDir;
 use crate::pipeline::deposition::heat_model_of;
-use crate::pipeline::replay::{self, Agreement, Sample};
+use crate::pipeline::replay::{self, Agreement, Laying, Pass, Sample};
 use crate::progress::Stage;
+use crate::scenario::ThermalSettings;
 use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
 use serde_json::json;
 use std::fmt::Write;
 use std::path::Path;
 use std::time::Instant;
+use thermal::HeatRun;
 use thermal::ZERO_CELSIUS_K as C;
 use thermal::material::Material;
+use thermal::run::RunResult;
+use thermal::schedule::Deposit;
 
 /// One probe's comparison.
 pub struct Compared {
     pub name: String,
     pub samples: Vec<Sample>,
     pub agreement: Option<Agreement>,
+    /// Each pass of the torch as this probe saw it.
+    pub passes: Vec<Pass>,
+}
+
+/// A replay's fixed inputs: what every run of it (a calibration makes many) shares.
+pub(crate) struct Replay<'a> {
+    pub s: &'a ReplayScenario,
+    pub path: Vec<toolpath::Waypoint>,
+    pub material: Material,
+    /// How often the probes are kept, s.
+    pub every_s: f64,
+}
+
+impl Replay<'_> {
+    /// Heat the path laid as `laying` with `thermal` from the start until `until_s` (cooling
+    /// after the last deposit if that comes later; deposits after it left out).
+    pub fn run(
+        &self,
+        laying: &Laying,
+        thermal: &ThermalSettings,
+        until_s: f64,
+    ) -> Result<(Vec<Deposit>, RunResult)> {
+        let mut deps = replay::deposits(&self.path, laying);
+        deps.retain(|d| d.arc_start() < until_s);
+        let mut model = heat_model_of(self.material.clone(), thermal, &deps, vec![], vec![]);
+        let probes = self.s.probes.as_ref().map_or(Vec::new(), |p| {
+            p.points.iter().map(|q| q.position_m).collect()
+        });
+        model.set_probes(probes, self.every_s);
+        let mut run = model.start(&deps)?;
+        thermal::run::replay(&mut run, &deps)?;
+        if until_s > run.now() {
+            run.cool(until_s - run.now())?;
+        }
+        Ok((deps, run.finish()))
+    }
 }
 
 pub fn run(scenario: &Path, out: &Path) -> Result<String> {
@@ -39,23 +79,31 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
         None => None,
     };
     let mut dir = RunDir::create(out)?;
-    let mut model = heat_model_of(material, &s.thermal, &deps, vec![], vec![]);
-    if let (Some(p), Some(m)) = (&s.probes, &measured) {
-        let positions = p.points.iter().map(|q| q.position_m).collect();
-        model.set_probes(positions, sampling_interval(&m.t_s));
-    }
+    let end_s = path.last().map_or(0.0, |w| w.t_s);
+    let until_s = measured
+        .as_ref()
+        .and_then(|m| m.t_s.last().copied())
+        .map_or(end_s, |t| t.max(end_s));
+    let r = Replay {
+        s: &s,
+        every_s: measured.as_ref().map_or(1.0, |m| sampling_interval(&m.t_s)),
+        path,
+        material,
+    };
     let clock = Instant::now();
-    let result = {
+    let (deps, result) = {
         let _stage = Stage::start("heating the replayed toolpath");
-        model.simulate(&deps)?
+        r.run(&s.laying, &s.thermal, until_s)?
     };
     let wall_s = clock.elapsed().as_secs_f64();
     let build_s = deps.last().map_or(0.0, |d| d.time);
-    let window = s.window_s.unwrap_or([0.0, build_s]);
+    let window = s.window_s.unwrap_or([0.0, until_s]);
+    let starts = replay::pass_starts(&deps);
     let compared: Vec<Compared> = match (&s.probes, &measured) {
-        (Some(p), Some(m)) => compare(p, m, &result.probes, window),
+        (Some(p), Some(m)) => compare(p, m, &result.probes, window, &starts),
         _ => Vec::new(),
     };
+    dir.write("passes.csv", passes_csv(&compared).as_bytes())?;
     dir.write("probes.csv", probes_csv(&compared).as_bytes())?;
     let voxels = match result.cells {
         thermal::Cells::Voxel { voxels, .. } => voxels,
@@ -65,7 +113,7 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     dir.write_json(
         "replay.json",
         &json!({
-            "model": model.name(),
+            "model": "voxel",
             "deposits": deps.len(),
             "voxels": voxels,
             "steps": result.steps,
@@ -82,6 +130,9 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
                 "max_abs_c": c.agreement.as_ref().map(|a| a.max_abs_c),
                 "max_at_s": c.agreement.as_ref().map(|a| a.max_at_s),
                 "bias_c": c.agreement.as_ref().map(|a| a.bias_c),
+                "passes": c.passes.len(),
+                "peak": pass_errors(c, |p| p.peak),
+                "before_next_pass": pass_errors(c, |p| p.before_next),
             })).collect::<Vec<_>>(),
         }),
     )?;
@@ -108,11 +159,12 @@ pub(crate) fn read(path: &Path) -> Result<String> {
 /// The toolpath as waypoints, from its file in its format.
 pub(crate) fn waypoints(s: &ReplayScenario) -> Result<Vec<toolpath::Waypoint>> {
     let (text, file) = (read(&s.toolpath)?, s.toolpath.display().to_string());
-    let mut path = match s.format {
+    let mut path = match &s.format {
         ToolpathFormat::Events => toolpath::event_series(&text, &file)?,
         ToolpathFormat::MachineLog => {
             machine_log::waypoints(&text, &file, &machine_log::Columns::default())?
         }
+        ToolpathFormat::Gcode(d) => gcode::waypoints(&text, &file, d)?,
     };
     if s.flag_starts {
         toolpath::flags_start_segments(&mut path);
@@ -172,6 +224,7 @@ pub(crate) fn compare(
     m: &probes::Series,
     traces: &[thermal::run::ProbeTrace],
     window: [f64; 2],
+    starts: &[f64],
 ) -> Vec<Compared> {
     p.points
         .iter()
@@ -182,6 +235,7 @@ pub(crate) fn compare(
             let agreement = replay::agreement(&samples, (window[0], window[1]));
             Compared {
                 name: q.name.clone(),
+                passes: replay::passes(&samples, starts),
                 samples,
                 agreement,
             }
@@ -198,6 +252,38 @@ pub(crate) fn overall(c: &[Compared]) -> Option<(f64, usize)> {
             (sq + a.rms_c * a.rms_c * a.samples as f64, n + a.samples)
         });
     (n > 0).then(|| ((sq / n as f64).sqrt(), n))
+}
+
+/// RMS and mean of predicted − measured of one quantity of a probe's passes, as JSON.
+fn pass_errors(c: &Compared, of: impl Fn(&Pass) -> Option<(f64, f64)>) -> serde_json::Value {
+    match replay::errors(c.passes.iter().filter_map(of)) {
+        Some((rms, bias)) => json!({"rms_c": rms, "bias_c": bias}),
+        None => serde_json::Value::Null,
+    }
+}
+
+/// Per probe and pass: the peaks and the temperatures before the next pass.
+fn passes_csv(c: &[Compared]) -> String {
+    let mut out = String::from(
+        "probe,pass,start_s,measured_peak_c,predicted_peak_c,measured_before_next_c,\
+         predicted_before_next_c\n",
+    );
+    let cell = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.2}"));
+    for p in c {
+        for (k, pass) in p.passes.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                "{},{k},{:.3},{},{},{},{}",
+                p.name,
+                pass.start_s,
+                cell(pass.peak.map(|x| x.0)),
+                cell(pass.peak.map(|x| x.1)),
+                cell(pass.before_next.map(|x| x.0)),
+                cell(pass.before_next.map(|x| x.1)),
+            );
+        }
+    }
+    out
 }
 
 pub(crate) fn probes_csv(c: &[Compared]) -> String {

@@ -4,6 +4,7 @@
 //! file's name (for messages) and do no IO themselves; each bad line is a one-line error naming
 //! the file, the line, the value and what was expected.
 
+pub mod gcode;
 pub mod machine_log;
 pub mod probes;
 pub mod table;

@@ -161,6 +161,64 @@ pub fn agreement(samples: &[Sample], window: (f64, f64)) -> Option<Agreement> {
     })
 }
 
+/// When each pass starts: a deposit after travel (a new track) or after a pause with the arc
+/// off, s.
+pub fn pass_starts(deps: &[Deposit]) -> Vec<f64> {
+    let mut out = Vec::new();
+    for (i, d) in deps.iter().enumerate() {
+        let paused = i > 0 && d.arc_start() > deps[i - 1].time + 1e-9;
+        if i == 0 || d.start.is_some() || paused {
+            out.push(d.arc_start());
+        }
+    }
+    out
+}
+
+/// One pass of the torch as a probe saw it: the highest temperature from its start to the next
+/// pass's, and the temperature just before the next pass (what the next one is laid on), °C,
+/// measured and predicted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pass {
+    pub start_s: f64,
+    pub peak: Option<(f64, f64)>,
+    pub before_next: Option<(f64, f64)>,
+}
+
+/// Each pass's peaks and the temperatures before the next, from paired samples.
+pub fn passes(samples: &[Sample], starts: &[f64]) -> Vec<Pass> {
+    starts
+        .iter()
+        .enumerate()
+        .map(|(i, &a)| {
+            let b = starts.get(i + 1).copied().unwrap_or(f64::INFINITY);
+            let inside = samples.iter().filter(|s| s.0 >= a && s.0 < b);
+            let peak = inside.fold(None, |m: Option<(f64, f64)>, s| {
+                Some(m.map_or((s.1, s.2), |m| (m.0.max(s.1), m.1.max(s.2))))
+            });
+            let before_next = (b.is_finite())
+                .then(|| samples.iter().rev().find(|s| s.0 < b && s.0 >= a))
+                .flatten()
+                .map(|s| (s.1, s.2));
+            Pass {
+                start_s: a,
+                peak,
+                before_next,
+            }
+        })
+        .collect()
+}
+
+/// RMS and mean of predicted − measured over pairs.
+pub fn errors(pairs: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64)> {
+    let (mut n, mut sq, mut sum) = (0usize, 0.0, 0.0);
+    for (m, p) in pairs {
+        n += 1;
+        sq += (p - m) * (p - m);
+        sum += p - m;
+    }
+    (n > 0).then(|| ((sq / n as f64).sqrt(), sum / n as f64))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,6 +262,35 @@ mod tests {
         assert_eq!(d[4].support, Some(0));
         assert_eq!(d[7].support, Some(3));
         thermal::schedule::validate(&d).unwrap();
+    }
+
+    /// Two tracks make two passes; each pass's peak and the reading before the next come from
+    /// its own samples.
+    #[test]
+    fn passes_of_two_tracks() {
+        let path = [
+            waypoint(0.0, -2.0, 0.75, false),
+            waypoint(4.0, 2.0, 0.75, true),
+            waypoint(8.0, -2.0, 1.5, false),
+            waypoint(12.0, 2.0, 1.5, true),
+        ];
+        let starts = pass_starts(&deposits(&path, &laying()));
+        assert_eq!(starts, vec![0.0, 8.0]);
+        let samples = [
+            (1.0, 900.0, 950.0),
+            (7.0, 300.0, 280.0),
+            (9.0, 1000.0, 900.0),
+            (11.0, 500.0, 520.0),
+        ];
+        let p = passes(&samples, &starts);
+        assert_eq!(p[0].peak, Some((900.0, 950.0)));
+        assert_eq!(p[0].before_next, Some((300.0, 280.0)));
+        assert_eq!(p[1].peak, Some((1000.0, 900.0)));
+        assert_eq!(p[1].before_next, None);
+        let (rms, bias) = errors(p.iter().filter_map(|p| p.peak)).unwrap();
+        // Errors +50 and −100 °C.
+        assert!((rms - 6250.0f64.sqrt()).abs() < 1e-9, "{rms}");
+        assert!((bias - (-25.0)).abs() < 1e-9);
     }
 
     #[test]

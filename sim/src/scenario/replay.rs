@@ -44,6 +44,30 @@ pub struct RawToolpath {
     /// or starting there ("starting_here", the event-series convention ORNL's file follows).
     #[serde(default = "ending_here")]
     pub on_flag: String,
+    /// G-code: the codes that strike and stop the arc.
+    #[serde(default = "m3")]
+    pub arc_on: String,
+    #[serde(default = "m5")]
+    pub arc_off: String,
+    /// G-code: "mm/min" (the standard) or "mm/s".
+    #[serde(default = "per_minute")]
+    pub feed_unit: String,
+    /// G-code: speed of moves with the arc off, where the controller travels faster than the
+    /// programmed feed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub travel_mm_s: Option<f64>,
+}
+
+fn m3() -> String {
+    "M3".into()
+}
+
+fn m5() -> String {
+    "M5".into()
+}
+
+fn per_minute() -> String {
+    "mm/min".into()
 }
 
 fn ending_here() -> String {
@@ -217,10 +241,49 @@ pub struct Probes {
 }
 
 /// How the toolpath file is written.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum ToolpathFormat {
     Events,
     MachineLog,
+    Gcode(crate::measured::gcode::Dialect),
+}
+
+fn gcode_dialect(t: &RawToolpath, c: &Checker) -> Result<crate::measured::gcode::Dialect> {
+    let feed_scale = match t.feed_unit.as_str() {
+        "mm/min" => 1.0 / 60.0,
+        "mm/s" => 1.0,
+        other => {
+            return Err(c.fail(
+                "toolpath",
+                "feed_unit",
+                format!("\"{other}\""),
+                "\"mm/min\" or \"mm/s\"",
+            ));
+        }
+    };
+    if let Some(v) = t.travel_mm_s {
+        c.positive("toolpath", "travel_mm_s", v, 1e5)?;
+    }
+    for (key, code) in [("arc_on", &t.arc_on), ("arc_off", &t.arc_off)] {
+        let b = code.as_bytes();
+        let ok = b.len() >= 2
+            && b[0].is_ascii_uppercase()
+            && code[1..].parse::<f64>().is_ok_and(|x| x.is_finite());
+        if !ok {
+            return Err(c.fail(
+                "toolpath",
+                key,
+                format!("\"{code}\""),
+                "a G-code word: a capital letter and a number, e.g. \"M101\"",
+            ));
+        }
+    }
+    Ok(crate::measured::gcode::Dialect {
+        arc_on: t.arc_on.clone(),
+        arc_off: t.arc_off.clone(),
+        feed_scale,
+        travel_mm_s: t.travel_mm_s,
+    })
 }
 
 /// Where the replay's material comes from.
@@ -304,12 +367,13 @@ impl ReplayScenario {
         let format = match raw.toolpath.format.as_str() {
             "events" => ToolpathFormat::Events,
             "machine_log" => ToolpathFormat::MachineLog,
+            "gcode" => ToolpathFormat::Gcode(gcode_dialect(&raw.toolpath, &c)?),
             other => {
                 return Err(c.fail(
                     "toolpath",
                     "format",
                     format!("\"{other}\""),
-                    "\"events\" (t_s, x_mm, y_mm, z_mm, on) or \"machine_log\"",
+                    "\"events\" (t_s, x_mm, y_mm, z_mm, on), \"machine_log\" or \"gcode\"",
                 ));
             }
         };
