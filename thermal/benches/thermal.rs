@@ -49,6 +49,7 @@ fn main() {
         courant: 0.9,
         probes: vec![],
         probe_every: 0.0,
+        source: thermal::voxel::HeatSource::DoubleEllipsoid,
     };
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()

@@ -280,6 +280,14 @@ impl HeatModel {
         }
     }
 
+    /// How the voxel model puts a deposit's heat in (the thin wall spreads it over its
+    /// footprint whatever this says).
+    pub fn set_source(&mut self, source: crate::voxel::HeatSource) {
+        if let HeatModel::Voxel(s) = self {
+            s.source = source;
+        }
+    }
+
     /// Whether the hottest laid metal is kept at every step ([`RunResult::hottest`]).
     pub fn set_trace_hottest(&mut self, on: bool) {
         match self {

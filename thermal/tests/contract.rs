@@ -56,6 +56,7 @@ fn models(material: Material) -> [HeatModel; 2] {
             courant: 0.9,
             probes: vec![],
             probe_every: 0.0,
+            source: thermal::voxel::HeatSource::DoubleEllipsoid,
         }),
     ]
 }

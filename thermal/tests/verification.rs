@@ -201,6 +201,7 @@ fn voxel_column(dx: f64, t_end: f64) -> f64 {
         courant: 0.9,
         probes: vec![],
         probe_every: 0.0,
+        source: thermal::voxel::HeatSource::DoubleEllipsoid,
     };
     let mut m = VoxelModel::new(&[], &settings).unwrap();
     let cells = (0.01 / dx).round() as usize;

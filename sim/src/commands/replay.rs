@@ -54,6 +54,7 @@ impl Replay<'_> {
             p.points.iter().map(|q| q.position_m).collect()
         });
         model.set_probes(probes, self.every_s);
+        model.set_source(self.s.source);
         let mut run = model.start(&deps)?;
         thermal::run::replay(&mut run, &deps)?;
         if until_s > run.now() {

@@ -133,6 +133,7 @@ pub fn heat_model_of(
             courant: VOXEL_COURANT,
             probes: vec![],
             probe_every: 0.0,
+            source: thermal::voxel::HeatSource::DoubleEllipsoid,
         }),
     }
 }

@@ -74,6 +74,10 @@ fn ending_here() -> String {
     "ending_here".into()
 }
 
+fn arc() -> String {
+    "arc".into()
+}
+
 fn events() -> String {
     "events".into()
 }
@@ -85,6 +89,12 @@ fn one() -> f64 {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawLaying {
+    /// "arc" (a double ellipsoid sized by the bead) or "laser" (a Gaussian on the surface).
+    #[serde(default = "arc")]
+    pub source: String,
+    /// The laser's 1/e² radius.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beam_radius_mm: Option<f64>,
     pub power_w: f64,
     /// Arc efficiency or laser absorptivity.
     pub efficiency: f64,
@@ -319,6 +329,7 @@ pub struct ReplayScenario {
     /// An event's `on` holds for the segment starting at it.
     pub flag_starts: bool,
     pub laying: Laying,
+    pub source: thermal::voxel::HeatSource,
     pub material: MaterialSpec,
     pub thermal: ThermalSettings,
     pub probes: Option<Probes>,
@@ -411,6 +422,7 @@ impl ReplayScenario {
                 height_m: p.layer_height_mm * 1e-3,
                 deposit_m: raw.toolpath.deposit_mm * 1e-3,
             },
+            source: source(p, &c)?,
             material: tables(&raw.material, &c, base)?,
             thermal,
             probes: raw
@@ -588,6 +600,33 @@ fn probes(p: &RawProbes, c: &Checker, base: &Path) -> Result<Probes> {
     })
 }
 
+fn source(p: &RawLaying, c: &Checker) -> Result<thermal::voxel::HeatSource> {
+    use thermal::voxel::HeatSource;
+    match (p.source.as_str(), p.beam_radius_mm) {
+        ("arc", None) => Ok(HeatSource::DoubleEllipsoid),
+        ("laser", Some(r)) => {
+            c.positive("process", "beam_radius_mm", r, 100.0)?;
+            Ok(HeatSource::Gaussian { radius: r * 1e-3 })
+        }
+        ("laser", None) => Err(c.fail_text(
+            "process",
+            "source",
+            "source = \"laser\" without beam_radius_mm; expected the beam's 1/e² radius",
+        )),
+        ("arc", Some(_)) => Err(c.fail_text(
+            "process",
+            "beam_radius_mm",
+            "beam_radius_mm with source = \"arc\"; expected it only for a laser",
+        )),
+        (other, _) => Err(c.fail(
+            "process",
+            "source",
+            format!("\"{other}\""),
+            "\"arc\" or \"laser\"",
+        )),
+    }
+}
+
 /// The scenario's own values of the parameters a calibration may fit, where it starts.
 fn thermal_start(raw: &RawReplay) -> [f64; 4] {
     [
@@ -755,6 +794,19 @@ mod tests {
         let unit = GOOD.replace("W/(mm K)", "W/mK");
         let e = ReplayScenario::parse(&unit, "r.toml", Path::new(".")).unwrap_err();
         assert!(e.message.contains("material.conductivity_unit = \"W/mK\""));
+        let laser = GOOD.replace("power_w = 500.0", "source = \"laser\"\npower_w = 500.0");
+        let e = ReplayScenario::parse(&laser, "r.toml", Path::new(".")).unwrap_err();
+        assert!(
+            e.message.contains("without beam_radius_mm"),
+            "{}",
+            e.message
+        );
+        let beam = laser.replace("power_w = 500.0", "beam_radius_mm = 1.0\npower_w = 500.0");
+        let s = ReplayScenario::parse(&beam, "r.toml", Path::new(".")).unwrap();
+        assert_eq!(
+            s.source,
+            thermal::voxel::HeatSource::Gaussian { radius: 1e-3 }
+        );
         let unknown = GOOD.replace("[thermal]", "[thermal]\nvoxels = 3");
         let e = ReplayScenario::parse(&unknown, "r.toml", Path::new(".")).unwrap_err();
         assert!(

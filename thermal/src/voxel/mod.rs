@@ -54,6 +54,20 @@ pub struct VoxelSettings {
     pub probes: Vec<[f64; 3]>,
     /// Least time between two kept probe samples, s (0: every step).
     pub probe_every: f64,
+    /// How a deposit's heat enters the part.
+    pub source: HeatSource,
+}
+
+/// How the heat of a deposit enters the part.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum HeatSource {
+    /// Goldak's double ellipsoid sized by the bead: the arc's, heating through the pool.
+    #[default]
+    DoubleEllipsoid,
+    /// A Gaussian flux of 1/e² radius `radius` (m) on the exposed tops around the pool, within
+    /// a layer of it: a laser's, absorbed at the surface (q = 2P/(πR²)·exp(−2r²/R²), cut at 2R
+    /// and normalised over the voxels it falls on).
+    Gaussian { radius: f64 },
 }
 
 /// Goldak double-ellipsoid parameters relative to the bead: half-width a = W/2, depth b = H,
@@ -582,6 +596,31 @@ impl VoxelModel {
             cross(d.axis, [0.0, 0.0, 1.0])
         };
         let across = normalize(cross(d.axis, tangent));
+        let w = match self.settings.source {
+            HeatSource::Gaussian { radius } => {
+                let w = self.surface(pool, d.axis, d.height, radius);
+                if w.is_empty() {
+                    self.ellipsoid(d, pool, tangent, across)
+                } else {
+                    w
+                }
+            }
+            HeatSource::DoubleEllipsoid => self.ellipsoid(d, pool, tangent, across),
+        };
+        let total: f64 = w.iter().map(|x| x.1).sum();
+        let power = heat / d.arc_time;
+        out.extend(w.iter().map(|&(v, wt)| (v, (power * wt / total) as f32)));
+    }
+
+    /// Goldak's double-ellipsoid weights of deposit `d`'s heat on the active voxels around
+    /// `pool`.
+    fn ellipsoid(
+        &self,
+        d: &Deposit,
+        pool: [f64; 3],
+        tangent: [f64; 3],
+        across: [f64; 3],
+    ) -> Vec<(u32, f64)> {
         let g = Goldak {
             a: d.width / 2.0,
             b: d.height.max(self.settings.size),
@@ -611,9 +650,42 @@ impl VoxelModel {
                 }
             }
         }
-        let total: f64 = w.iter().map(|x| x.1).sum();
-        let power = heat / d.arc_time;
-        out.extend(w.iter().map(|&(v, wt)| (v, (power * wt / total) as f32)));
+        w
+    }
+
+    /// Gaussian surface weights: the active voxels with their top exposed (no voxel above),
+    /// within 2R of `pool` across the build direction and within a layer of it along it.
+    fn surface(&self, pool: [f64; 3], axis: [f64; 3], height: f64, radius: f64) -> Vec<(u32, f64)> {
+        let dx = self.settings.size;
+        let reach = 2.0 * radius + dx;
+        let depth = height.max(dx) + dx;
+        let lo: [isize; 3] = std::array::from_fn(|k| {
+            ((pool[k] - reach - depth - self.origin[k]) / dx).floor() as isize
+        });
+        let hi: [isize; 3] =
+            std::array::from_fn(|k| ((pool[k] + reach + dx - self.origin[k]) / dx).ceil() as isize);
+        let mut w = Vec::new();
+        for iz in lo[2].max(0)..=hi[2].min(self.dims[2] as isize - 1) {
+            for iy in lo[1].max(0)..=hi[1].min(self.dims[1] as isize - 1) {
+                for ix in lo[0].max(0)..=hi[0].min(self.dims[0] as isize - 1) {
+                    let (ix, iy, iz) = (ix as usize, iy as usize, iz as usize);
+                    let Some(&v) = self.index.get(&self.flat(ix, iy, iz)) else {
+                        continue;
+                    };
+                    // +z face (index 5) pointing at itself: nothing above.
+                    if self.neighbours[5][v as usize] != v {
+                        continue;
+                    }
+                    let r = sub(self.centre(ix, iy, iz), pool);
+                    let along = dot(r, axis);
+                    let off = norm(sub(r, scale(axis, along)));
+                    if along >= -depth && along <= dx && off <= 2.0 * radius {
+                        w.push((v, (-2.0 * off * off / (radius * radius)).exp()));
+                    }
+                }
+            }
+        }
+        w
     }
 
     /// Run the schedule as its times say (dwells are the gaps between arcs).
@@ -1073,6 +1145,7 @@ mod tests {
             courant: 0.9,
             probes: vec![],
             probe_every: 0.0,
+            source: HeatSource::DoubleEllipsoid,
         };
         (deps, settings)
     }
@@ -1136,5 +1209,49 @@ mod tests {
         assert_eq!(one.points, two.points);
         assert_eq!(one.ledger, two.ledger);
         assert_eq!(one.stored.to_bits(), two.stored.to_bits());
+    }
+
+    /// A laser's Gaussian falls on the exposed tops within 2R of the pool and a layer of it:
+    /// its shares add up to the power, the nearest top gets the most, and a run with it keeps
+    /// its energy balance.
+    #[test]
+    fn a_gaussian_source_heats_the_exposed_top() {
+        let (deps, mut settings) = three_revolutions(100.0);
+        let radius = 3e-3;
+        settings.source = HeatSource::Gaussian { radius };
+        let mut m = VoxelModel::new(&deps, &settings).unwrap();
+        for i in 0..=100 {
+            m.lay(&deps, i);
+        }
+        let mut out = Vec::new();
+        let (d, heat) = (&deps[100], 500.0);
+        m.source(&deps, 100, heat, &mut out);
+        assert!(out.len() > 3, "{} voxels", out.len());
+        let total: f64 = out.iter().map(|x| x.1 as f64).sum();
+        assert!((total - heat / d.arc_time).abs() < 1e-3 * total, "{total}");
+        let pool = sub(d.position, scale(d.axis, m.sink[100]));
+        for &(v, _) in &out {
+            assert_eq!(
+                m.neighbours[5][v as usize], v,
+                "a voxel under another heated"
+            );
+            let r = sub(m.centre_of(v), pool);
+            let off = norm(sub(r, scale(d.axis, dot(r, d.axis))));
+            assert!(off <= 2.0 * radius + 1e-12);
+        }
+        let nearest = out
+            .iter()
+            .min_by(|a, b| {
+                let da = norm(sub(m.centre_of(a.0), pool));
+                let db = norm(sub(m.centre_of(b.0), pool));
+                da.total_cmp(&db)
+            })
+            .unwrap();
+        assert!(out.iter().all(|x| x.1 <= nearest.1 * (1.0 + 1e-6)));
+        let r = VoxelModel::new(&deps, &settings)
+            .unwrap()
+            .run(&deps)
+            .unwrap();
+        assert!(r.balance_error.abs() < 1e-3, "{}", r.balance_error);
     }
 }
