@@ -7,6 +7,8 @@ use std::fmt;
 pub enum ThermalError {
     /// The schedule breaks one of its rules ([`crate::schedule::validate`]).
     Schedule { deposit: usize, reason: String },
+    /// The plate cannot be modelled as given.
+    Plate { reason: String },
     /// A deposit laid on the plate lies outside it.
     OutsidePlate {
         deposit: usize,
@@ -35,6 +37,7 @@ impl fmt::Display for ThermalError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             ThermalError::Schedule { deposit, reason } => write!(f, "deposit {deposit}: {reason}"),
+            ThermalError::Plate { reason } => write!(f, "plate: {reason}"),
             ThermalError::OutsidePlate {
                 deposit,
                 x_mm,

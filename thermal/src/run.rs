@@ -25,6 +25,9 @@ pub struct Plate {
     pub cell: f64,
     /// Thin wall: cell layers through the thickness (the wall heats the plate's top skin first).
     pub layers: usize,
+    /// A disc of diameter `size[0]` about `centre` (`size[1]` the same), not a box. The voxel
+    /// model takes it; the thin wall, whose plate is a grid of cells, refuses it.
+    pub disc: bool,
 }
 
 /// What a deposit is laid on.

@@ -125,6 +125,13 @@ pub struct WallModel {
 impl WallModel {
     pub fn build(deps: &[Deposit], s: &WallSettings) -> Result<WallModel, ThermalError> {
         validate(deps)?;
+        if s.plate.disc {
+            return Err(ThermalError::Plate {
+                reason: "a disc; the thin wall's plate is a grid of cells (a box): use the \
+                         voxel model"
+                    .into(),
+            });
+        }
         // One continuous bead is what the wall's nodes are: a path that breaks off (tracks
         // with travel between them) is the voxel model's.
         if let Some(i) = deps.iter().position(|d| d.start.is_some()) {

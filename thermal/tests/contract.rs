@@ -26,6 +26,7 @@ fn models(material: Material) -> [HeatModel; 2] {
         centre: [0.0, 0.0],
         cell: 5e-3,
         layers: 3,
+        disc: false,
     };
     [
         HeatModel::ThinWall(WallSettings {
@@ -305,4 +306,35 @@ fn a_probe_reads_once_metal_is_there() {
     }
     let hottest = here.temperature.iter().copied().fold(f64::NAN, f64::max);
     assert!(hottest > 1000.0, "{hottest} K: the arc passes over it");
+}
+
+/// A disc plate: the voxel model switches on the cells inside it (π/4 of the box's, to the
+/// staircase of its rim), and the thin wall, whose plate is a grid of cells, says it cannot.
+#[test]
+fn a_disc_plate_is_round_on_voxels_and_refused_by_the_thin_wall() {
+    let deps = schedule();
+    let [mut wall, mut voxel] = models(Material::g3si());
+    let cells = |m: &HeatModel| match m.simulate(&deps).unwrap().cells {
+        thermal::Cells::Voxel { voxels, .. } => voxels,
+        _ => unreachable!(),
+    };
+    let boxed = cells(&voxel);
+    if let HeatModel::Voxel(s) = &mut voxel {
+        s.plate.disc = true;
+    }
+    let round = cells(&voxel);
+    // The wall's own voxels are the same in both; the plate is 50 × 50 × 4 cells.
+    let plate = 50.0 * 50.0 * 4.0;
+    let ratio = (plate - (boxed - round) as f64) / plate;
+    assert!(
+        (ratio - std::f64::consts::FRAC_PI_4).abs() < 0.02,
+        "{ratio}"
+    );
+    if let HeatModel::ThinWall(s) = &mut wall {
+        s.plate.disc = true;
+    }
+    assert!(matches!(
+        wall.simulate(&deps),
+        Err(ThermalError::Plate { .. })
+    ));
 }

@@ -22,6 +22,7 @@ fn plate() -> Plate {
         centre: [0.0, 0.0],
         cell: 5e-3,
         layers: 3,
+        disc: false,
     }
 }
 

@@ -190,6 +190,7 @@ fn voxel_column(dx: f64, t_end: f64) -> f64 {
             centre: [0.0, 0.0],
             cell: dx,
             layers: 1,
+            disc: false,
         },
         size: dx,
         deposit_temperature: 300.0,

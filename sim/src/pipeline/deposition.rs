@@ -103,6 +103,7 @@ pub fn heat_model_of(
         centre: plate_centre(deposits),
         cell: t.plate_cell_m,
         layers: PLATE_LAYERS,
+        disc: t.plate_disc,
     };
     match t.model {
         ThermalModel::Fe => HeatModel::ThinWall(WallSettings {

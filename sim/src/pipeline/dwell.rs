@@ -621,6 +621,7 @@ mod tests {
                 centre: [0.0, 0.0],
                 cell: 5e-3,
                 layers: 3,
+                disc: false,
             },
             min_node: 3e-3,
             deposit_temperature: 1823.15,

@@ -91,6 +91,8 @@ pub struct ThermalSettings {
     pub convection_w_m2k: f64,
     pub emissivity: f64,
     pub plate_m: [f64; 3],
+    /// The plate is a disc of diameter `plate_m[0]`.
+    pub plate_disc: bool,
     pub lead_m: f64,
 }
 

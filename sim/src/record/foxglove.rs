@@ -194,13 +194,21 @@ impl Sink for McapSink {
         });
         let [cx, cy] = scene.plate_centre_mm;
         let [sx, sy, sz] = scene.plate_size_mm;
-        let plate = json!({
+        let mut plate = json!({
             "pose": {"position": vec3([cx, cy, -sz / 2.0]), "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}},
             "size": vec3([sx, sy, sz]), "color": colour(0.43, 0.43, 0.47, 1.0),
         });
+        let shape = match scene.plate_disc {
+            true => {
+                plate["bottom_scale"] = json!(1.0);
+                plate["top_scale"] = json!(1.0);
+                "cylinders"
+            }
+            false => "cubes",
+        };
         let part_msg = json!({"deletions": [], "entities": [
             entity(0.0, "world", "part", &[("triangles", tri)]),
-            entity(0.0, "world", "plate", &[("cubes", plate)]),
+            entity(0.0, "world", "plate", &[(shape, plate)]),
         ]});
         self.send("/part", 0.0, &part_msg)?;
         let spiral = line_strip(

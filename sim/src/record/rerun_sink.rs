@@ -82,14 +82,25 @@ impl Sink for RerunSink {
         .map_err(fail)?;
         let [cx, cy] = scene.plate_centre_mm;
         let [sx, sy, sz] = scene.plate_size_mm;
-        rec.log_static(
-            "world/plate",
-            &rerun::Boxes3D::from_centers_and_sizes(
-                [[cx as f32, cy as f32, -(sz / 2.0) as f32]],
-                [[sx as f32, sy as f32, sz as f32]],
+        let centre = [cx as f32, cy as f32, -(sz / 2.0) as f32];
+        let grey = rerun::Color::from_rgb(110, 110, 120);
+        if scene.plate_disc {
+            rec.log_static(
+                "world/plate",
+                &rerun::Cylinders3D::from_lengths_and_radii([sz as f32], [(sx / 2.0) as f32])
+                    .with_centers([centre])
+                    .with_colors([grey]),
             )
-            .with_colors([rerun::Color::from_rgb(110, 110, 120)]),
-        )
+        } else {
+            rec.log_static(
+                "world/plate",
+                &rerun::Boxes3D::from_centers_and_sizes(
+                    [centre],
+                    [[sx as f32, sy as f32, sz as f32]],
+                )
+                .with_colors([grey]),
+            )
+        }
         .map_err(fail)?;
         rec.log_static(
             "world/plan/spiral",

@@ -98,6 +98,8 @@ pub struct Scene {
     /// Centre of the plate's top face (x, y) and its size (x, y, thickness), mm.
     pub plate_centre_mm: [f64; 2],
     pub plate_size_mm: [f64; 3],
+    /// The plate is a disc of diameter `plate_size_mm[0]`.
+    pub plate_disc: bool,
     pub generators: Vec<Vec<[f64; 3]>>,
     pub points: Vec<PointRecord>,
     /// The deposited wall as triangles over the path points: each point joined to the point it
@@ -167,6 +169,7 @@ impl Scene {
             part: r.part.clone(),
             plate_centre_mm: centre,
             plate_size_mm: b.params.thermal.plate_m.map(|v| v * 1e3),
+            plate_disc: b.params.thermal.plate_disc,
             generators: pl
                 .generators
                 .iter()

@@ -327,6 +327,34 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         1.0,
         "between 0 and 1",
     )?;
+    let plate_disc = match (t.plate_shape.as_str(), model) {
+        ("box", _) => false,
+        ("disc", ThermalModel::Voxel) if t.plate_mm[0] == t.plate_mm[1] => true,
+        ("disc", ThermalModel::Voxel) => {
+            return Err(c.fail(
+                "thermal",
+                "plate_mm",
+                format!("{:?}", t.plate_mm),
+                "a disc's diameter twice: [d, d, thickness]",
+            ));
+        }
+        ("disc", ThermalModel::Fe) => {
+            return Err(c.fail(
+                "thermal",
+                "plate_shape",
+                "\"disc\"",
+                "\"box\" with model = \"fe\" (the thin wall's plate is a grid of cells)",
+            ));
+        }
+        (other, _) => {
+            return Err(c.fail(
+                "thermal",
+                "plate_shape",
+                format!("\"{other}\""),
+                "\"box\" or \"disc\"",
+            ));
+        }
+    };
     for (k, v) in t.plate_mm.iter().enumerate() {
         if !(v.is_finite() && *v > 0.0 && *v <= 10_000.0) {
             return Err(c.fail(
@@ -422,6 +450,7 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         convection_w_m2k: t.convection_w_m2k,
         emissivity: t.emissivity,
         plate_m: t.plate_mm.map(|v| v * MM),
+        plate_disc,
         lead_m: t.lead_mm * MM,
     })
 }

@@ -187,6 +187,8 @@ pub struct RawThermal {
     pub properties: String,
     /// Voxel edge of the voxel model.
     pub voxel_mm: f64,
+    /// "box" or "disc" (of diameter plate_mm[0], which plate_mm[1] repeats; voxel model only).
+    pub plate_shape: String,
 }
 
 impl Default for RawThermal {
@@ -206,6 +208,7 @@ impl Default for RawThermal {
             hot_threshold_c: 600.0,
             properties: "temperature".into(),
             voxel_mm: 2.0,
+            plate_shape: "box".into(),
         }
     }
 }

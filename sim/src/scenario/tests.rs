@@ -27,3 +27,24 @@ fn locate_finds_the_key_in_its_section() {
     assert_eq!(locate(t, "part", "deposit_mm"), Some(2));
     assert_eq!(locate(t, "thermal", "deposit_mm"), None);
 }
+
+#[test]
+fn a_disc_plate_is_the_voxel_models_and_round() {
+    let base = "[part]\nshape = \"hemisphere\"\nradius_mm = 30.0\n[thermal]\n";
+    let s = parse(&format!(
+        "{base}model = \"voxel\"\nplate_shape = \"disc\"\nplate_mm = [100.0, 100.0, 10.0]\n"
+    ))
+    .unwrap();
+    assert!(s.thermal.plate_disc);
+    for (keys, needle) in [
+        (
+            "model = \"voxel\"\nplate_shape = \"disc\"\nplate_mm = [100.0, 80.0, 10.0]\n",
+            "a disc's diameter twice",
+        ),
+        ("plate_shape = \"disc\"\n", "\"box\" with model = \"fe\""),
+        ("plate_shape = \"round\"\n", "\"box\" or \"disc\""),
+    ] {
+        let e = parse(&format!("{base}{keys}")).unwrap_err();
+        assert!(e.message.contains(needle), "{needle}: {}", e.message);
+    }
+}

@@ -226,9 +226,12 @@ impl VoxelModel {
             for iy in 0..dims[1] {
                 for ix in 0..dims[0] {
                     let c = m.centre(ix, iy, iz);
-                    if (c[0] - p.centre[0]).abs() <= p.size[0] / 2.0
-                        && (c[1] - p.centre[1]).abs() <= p.size[1] / 2.0
-                    {
+                    let (ox, oy) = (c[0] - p.centre[0], c[1] - p.centre[1]);
+                    let inside = match p.disc {
+                        true => ox.hypot(oy) <= p.size[0] / 2.0,
+                        false => ox.abs() <= p.size[0] / 2.0 && oy.abs() <= p.size[1] / 2.0,
+                    };
+                    if inside {
                         let bottom = iz == z0 - k_plate;
                         let v = m.add([ix, iy, iz], s.surroundings.ambient_k, [1.0; 6], bottom);
                         if iz == z0 - 1 {
@@ -1134,6 +1137,7 @@ mod tests {
                 centre: [0.0, 0.0],
                 cell: 5e-3,
                 layers: 3,
+                disc: false,
             },
             size: 2e-3,
             deposit_temperature: 1823.15,
