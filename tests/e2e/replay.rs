@@ -66,6 +66,20 @@ fn gamma_wall_against_its_ir_camera() {
     let (head, rows) = read_csv(&out.join("passes.csv"));
     assert_eq!(head[0..3], ["probe", "pass", "start_s"]);
     assert_eq!(rows.len(), 29 * 60);
+    // The probes as series in run.mcap: every sample, in time order, as probes.csv has them.
+    let bytes = std::fs::read(out.join("run.mcap")).unwrap();
+    let (mut count, mut last) = (0u64, 0u64);
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        assert_eq!(m.channel.topic, "/probes");
+        assert!(m.log_time >= last);
+        last = m.log_time;
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        assert!(v["predicted_c"].as_f64().unwrap().is_finite(), "{v}");
+        count += 1;
+    }
+    assert_eq!(count, r["samples"].as_u64().unwrap());
+    assert!(out.join("run.rrd").is_file());
 }
 
 #[test]

@@ -147,6 +147,22 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
             .map(|c| (c.name.as_str(), c.samples.as_slice()))
             .collect();
         crate::record::probe_plot(&mut dir, "probes.png", &title, &series, s.window_s)?;
+        let positions = s.probes.as_ref().map_or(Vec::new(), |p| {
+            p.points
+                .iter()
+                .map(|q| q.position_m.map(|x| x * 1e3))
+                .collect()
+        });
+        let recorded: Vec<crate::record::replay::ProbeSeries> = compared
+            .iter()
+            .zip(&positions)
+            .map(|(c, &position_mm)| crate::record::replay::ProbeSeries {
+                name: &c.name,
+                position_mm,
+                samples: &c.samples,
+            })
+            .collect();
+        crate::record::replay::write(&mut dir, &title, &tracks(&deps), &recorded)?;
     }
     dir.finish("replay", s.to_json())?;
     Ok(summary(&deps, build_s, wall_s, &compared, overall))
@@ -155,6 +171,23 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
 pub(crate) fn read(path: &Path) -> Result<String> {
     std::fs::read_to_string(path)
         .map_err(|e| Error::input(format!("cannot read {}: {e}", path.display())))
+}
+
+/// The laid path as polylines, one a track (mm).
+#[cfg(feature = "recording")]
+fn tracks(deps: &[Deposit]) -> Vec<Vec<[f64; 3]>> {
+    let mut out: Vec<Vec<[f64; 3]>> = Vec::new();
+    for (i, d) in deps.iter().enumerate() {
+        let mm = |p: [f64; 3]| p.map(|x| x * 1e3);
+        let paused = i > 0 && d.arc_start() > deps[i - 1].time + 1e-9;
+        if i == 0 || d.start.is_some() || paused {
+            out.push(vec![mm(thermal::schedule::segment_start(deps, i))]);
+        }
+        if let Some(t) = out.last_mut() {
+            t.push(mm(d.position));
+        }
+    }
+    out
 }
 
 /// The toolpath as waypoints, from its file in its format.

@@ -16,6 +16,8 @@ mod foxglove;
 #[cfg(feature = "recording")]
 mod plots;
 #[cfg(feature = "recording")]
+pub mod replay;
+#[cfg(feature = "recording")]
 mod report;
 #[cfg(feature = "recording")]
 mod rerun_layout;
