@@ -248,3 +248,24 @@ fn ornl_gcode_and_event_series_agree() {
         |w: &[sim::measured::toolpath::Waypoint]| w.iter().rev().find(|w| w.on).unwrap().t_s;
     assert!((last_on(&g) - last_on(&e)).abs() < 5.0);
 }
+
+/// The IN718 preset is the GAMMA tables read from their files (to the rounding of their
+/// unit conversion): a replay with `preset = "IN718"` heats as one with the tables.
+#[test]
+fn the_in718_preset_is_the_gamma_tables() {
+    if validation_data().is_none() {
+        return;
+    }
+    let base = root().join("scenarios");
+    let text = std::fs::read_to_string(base.join("gamma_in718_wall.toml")).unwrap();
+    let s = sim::scenario::replay::ReplayScenario::parse(&text, "gamma", &base).unwrap();
+    let files = sim::commands::replay::material(&s.material).unwrap();
+    let preset = thermal::material::Material::in718();
+    for t in (300..3000).step_by(7).map(f64::from) {
+        let (a, b) = (files.enthalpy(t), preset.enthalpy(t));
+        assert!((a - b).abs() <= 1e-9 * b, "h at {t} K: {a} vs {b}");
+        let (a, b) = (files.conductivity(t), preset.conductivity(t));
+        assert!((a - b).abs() <= 1e-9 * b, "k at {t} K: {a} vs {b}");
+    }
+    assert_eq!(files.density, preset.density);
+}

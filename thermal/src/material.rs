@@ -38,6 +38,53 @@ pub const G3SI: Preset = Preset {
     diffusivity_m2_s: 14e-6,
 };
 
+/// IN718 (Inconel 718): c_p (J/(kg K)) and k (W/(m K)) against T (K), as the GAMMA authors
+/// tabulated them for their DED calibration (AMPL-NU/DED_Simulation_Cupy, commit 1b1b511,
+/// `projects/calibration/inputs/IN718_cp.txt` and `IN718_cond.txt`, there in J/(g K) and
+/// W/(mm K); copied in `../shared/validation-data/gamma_in718_ded_thinwall/`), with their
+/// density 8 190 kg/m³, solidus 1 533.15 K, liquidus 1 609.15 K and latent heat 270 kJ/kg (from
+/// their model deck, the data set's setup.json). Sources and caveats in docs/PHYSICS.md.
+pub const IN718_CP: [(f64, f64); 17] = [
+    (298.0, 435.0),
+    (373.0, 455.0),
+    (473.0, 479.0),
+    (573.0, 497.0),
+    (673.0, 515.0),
+    (773.0, 527.0),
+    (873.0, 558.0),
+    (973.0, 568.0),
+    (1073.0, 680.0),
+    (1173.0, 640.0),
+    (1273.0, 620.0),
+    (1373.0, 640.0),
+    (1443.0, 650.0),
+    (1609.0, 720.0),
+    (1673.0, 720.0),
+    (1773.0, 720.0),
+    (1873.0, 720.0),
+];
+
+/// IN718 conductivity, W/(m K), against T (K); the source of [`IN718_CP`].
+pub const IN718_K: [(f64, f64); 17] = [
+    (298.0, 8.9),
+    (373.0, 10.8),
+    (473.0, 12.9),
+    (573.0, 15.2),
+    (673.0, 17.4),
+    (773.0, 18.7),
+    (873.0, 20.8),
+    (973.0, 21.9),
+    (1073.0, 26.9),
+    (1173.0, 25.8),
+    (1273.0, 26.7),
+    (1373.0, 28.3),
+    (1443.0, 29.3),
+    (1609.0, 29.6),
+    (1673.0, 29.6),
+    (1773.0, 29.6),
+    (1873.0, 29.6),
+];
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
     pub density: f64,
@@ -78,6 +125,12 @@ impl Material {
             p.liquidus_k,
             p.latent_j_kg,
         )
+    }
+
+    /// IN718 from [`IN718_CP`] and [`IN718_K`].
+    pub fn in718() -> Material {
+        Material::from_tables(8190.0, &IN718_CP, &IN718_K, 1533.15, 1609.15, 2.7e5)
+            .expect("the IN718 tables are ascending and positive (tested)")
     }
 
     /// Properties from measured tables: c_p(T) in J/(kg K) and k(T) in W/(m K), each as
@@ -331,5 +384,16 @@ mod tests {
         let negative = [(300.0, -1.0)];
         let e = super::Material::from_tables(8000.0, &cp, &negative, 1500.0, 1600.0, 0.0);
         assert!(e.unwrap_err().contains("conductivity table's row 1"));
+    }
+
+    /// The IN718 preset is the GAMMA tables in SI: c_p 0.455 J/(g K) at 373 K, k 0.0269 W/(mm K)
+    /// at 1073 K, held beyond the last row.
+    #[test]
+    fn in718_is_the_gamma_tables_in_si() {
+        let m = super::Material::in718();
+        assert!((m.specific_heat(373.0) - 455.0).abs() < 1e-9);
+        assert!((m.conductivity(1073.0) - 26.9).abs() < 1e-9);
+        assert!((m.conductivity(3000.0) - 29.6).abs() < 1e-9);
+        assert_eq!(m.density, 8190.0);
     }
 }

@@ -1,6 +1,8 @@
 //! `waamtwin replay SCENARIO -o DIR`: a toolpath the machine ran, heated by the voxel model, and
-//! held against what the part measured: probes.csv (every sample where both read), replay.json
-//! (agreement per probe and over all), probes.png (measured and predicted against time).
+//! held against what the part measured: probes.csv (every sample where both read), passes.csv
+//! (each pass of the torch as each probe saw it), replay.json (agreement per probe and over
+//! all), probes.png (measured and predicted against time), run.rrd and run.mcap (the probes as
+//! series). The file contract is in `scenarios/README.md`.
 
 use crate::error::{Error, Result};
 use crate::measured::{gcode, machine_log, probes, table, toolpath};
@@ -210,9 +212,10 @@ pub(crate) fn waypoints(s: &ReplayScenario) -> Result<Vec<toolpath::Waypoint>> {
     Ok(path)
 }
 
-pub(crate) fn material(spec: &MaterialSpec) -> Result<Material> {
+pub fn material(spec: &MaterialSpec) -> Result<Material> {
     let t = match spec {
         MaterialSpec::G3Si => return Ok(Material::g3si()),
+        MaterialSpec::In718 => return Ok(Material::in718()),
         MaterialSpec::Tables(t) => t,
     };
     let load = |path: &Path, scale: f64| -> Result<Vec<(f64, f64)>> {

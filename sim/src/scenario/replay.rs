@@ -301,6 +301,8 @@ fn gcode_dialect(t: &RawToolpath, c: &Checker) -> Result<crate::measured::gcode:
 pub enum MaterialSpec {
     /// G3Si (ER70S-6 class) on a low-carbon steel plate: `thermal::material::Material::g3si`.
     G3Si,
+    /// IN718, the GAMMA authors' tables: `thermal::material::Material::in718`.
+    In718,
     Tables(Tables),
 }
 
@@ -452,16 +454,17 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
             || m.conductivity_table.is_some();
         return match (p.as_str(), others) {
             ("G3Si", false) => Ok(MaterialSpec::G3Si),
-            ("G3Si", true) => Err(c.fail_text(
+            ("IN718", false) => Ok(MaterialSpec::In718),
+            ("G3Si" | "IN718", true) => Err(c.fail_text(
                 "material",
                 "preset",
-                "preset = \"G3Si\" with table keys beside it; expected one or the other",
+                format!("preset = \"{p}\" with table keys beside it; expected one or the other"),
             )),
             (other, _) => Err(c.fail(
                 "material",
                 "preset",
                 format!("\"{other}\""),
-                "\"G3Si\", or tables instead of a preset",
+                "\"G3Si\" or \"IN718\", or tables instead of a preset",
             )),
         };
     }
