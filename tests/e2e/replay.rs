@@ -4,6 +4,26 @@
 use crate::{assert_input_error, read_csv, root, scratch, waamtwin};
 use std::path::PathBuf;
 
+/// Run `waamtwin COMMAND scenarios/SCENARIO -o scratch/NAME`, expect success, and return the
+/// output folder and the JSON file it names.
+fn run_ok(command: &str, scenario: &str, name: &str, json: &str) -> (PathBuf, serde_json::Value) {
+    let out = scratch(name);
+    let scenario = root().join("scenarios").join(scenario);
+    let run = waamtwin(&[
+        command,
+        scenario.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let v = serde_json::from_slice(&std::fs::read(out.join(json)).unwrap()).unwrap();
+    (out, v)
+}
+
 fn validation_data() -> Option<PathBuf> {
     let d = root().join("../shared/validation-data");
     if d.is_dir() {
@@ -23,21 +43,12 @@ fn gamma_wall_against_its_ir_camera() {
     if validation_data().is_none() {
         return;
     }
-    let out = scratch("replay_gamma");
-    let scenario = root().join("scenarios/gamma_in718_wall.toml");
-    let run = waamtwin(&[
+    let (out, r) = run_ok(
         "replay",
-        scenario.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+        "gamma_in718_wall.toml",
+        "replay_gamma",
+        "replay.json",
     );
-    let r: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
     assert_eq!(r["deposits"], 2640, "60 tracks of 44 mm in 1 mm deposits");
     let probes = r["probes"].as_array().unwrap();
     assert_eq!(probes.len(), 29);
@@ -121,21 +132,12 @@ fn gamma_wall_calibrated_on_one_half_and_judged_on_the_other() {
     if validation_data().is_none() {
         return;
     }
-    let out = scratch("calibrate_gamma");
-    let scenario = root().join("scenarios/gamma_in718_wall.toml");
-    let run = waamtwin(&[
+    let (out, c) = run_ok(
         "calibrate",
-        scenario.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+        "gamma_in718_wall.toml",
+        "calibrate_gamma",
+        "calibration.json",
     );
-    let c: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("calibration.json")).unwrap()).unwrap();
     let f = |k: &str| c[k].as_f64().unwrap_or_else(|| panic!("{k}: {c}"));
     assert!(f("rms_fit_c") < 0.9 * f("rms_fit_before_c"), "{c}");
     assert!(f("rms_holdout_c") < 0.7 * f("rms_holdout_before_c"), "{c}");
@@ -181,21 +183,7 @@ fn ornl_pad_against_its_thermocouples() {
     if validation_data().is_none() {
         return;
     }
-    let out = scratch("replay_ornl");
-    let scenario = root().join("scenarios/ornl_srp_pad.toml");
-    let run = waamtwin(&[
-        "replay",
-        scenario.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let r: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+    let (_, r) = run_ok("replay", "ornl_srp_pad.toml", "replay_ornl", "replay.json");
     // 4 layers × 10 beads × 500 mm in 2 mm deposits, and the 4.5 mm steps between beads.
     assert!(
         (10_000..10_200).contains(&r["deposits"].as_u64().unwrap()),

@@ -526,11 +526,11 @@ pub fn probe_plot(
     series: &[(&str, &[Sample])],
     window: Option<[f64; 2]>,
 ) -> Result<()> {
-    let shown: Vec<usize> = match series.len() {
-        0 => return Ok(()),
-        n if n <= 6 => (0..n).collect(),
-        n => (0..6).map(|k| k * (n - 1) / 5).collect(),
-    };
+    if series.is_empty() {
+        return Ok(());
+    }
+    // The same six the replay's run.rrd opens on.
+    let shown = super::replay::shown(series.len());
     draw(dir, name, |area| {
         let panels = area.split_evenly((3, 2));
         for (panel, &k) in panels.iter().zip(&shown) {
