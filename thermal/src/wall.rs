@@ -14,7 +14,7 @@ use crate::run::{
     Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, RunResult, Snapshot, Support, Trace,
     replay,
 };
-use crate::schedule::{Deposit, read_fractions, validate};
+use crate::schedule::{Deposit, read_fractions, segment_start, validate};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -59,7 +59,17 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-/// Group consecutive deposits into nodes at least `min_node` long.
+/// Length of deposit i's bead segment: from where it begins (the previous deposit, or its own
+/// start after travel) to its point; the first deposit of a path is as long as it is wide.
+fn seg_len(deps: &[Deposit], i: usize) -> f64 {
+    match (i, deps[i].start) {
+        (0, None) => deps[0].width,
+        _ => dist(deps[i].position, segment_start(deps, i)).max(1e-6),
+    }
+}
+
+/// Group consecutive deposits into nodes at least `min_node` long, a node never reaching across
+/// the travel between two tracks.
 fn layout(deps: &[Deposit], min_node: f64) -> Layout {
     let mut l = Layout {
         node_of: Vec::with_capacity(deps.len()),
@@ -89,13 +99,8 @@ fn layout(deps: &[Deposit], min_node: f64) -> Layout {
     };
     let mut run = 0.0;
     for (i, d) in deps.iter().enumerate() {
-        // The segment ending at deposit i: from the previous point (the first has its width).
-        let seg = if i == 0 {
-            d.width
-        } else {
-            dist(d.position, deps[i - 1].position).max(1e-6)
-        };
-        if !acc.is_empty() && run >= min_node {
+        let seg = seg_len(deps, i);
+        if !acc.is_empty() && (run >= min_node || d.start.is_some()) {
             flush(&mut l, &mut acc);
             run = 0.0;
         }
@@ -111,6 +116,8 @@ fn layout(deps: &[Deposit], min_node: f64) -> Layout {
 pub struct WallModel {
     pub network: Network,
     layout_first: Arc<Vec<usize>>,
+    /// Per wall node: it begins a track (the arc's footprint does not reach behind it).
+    track_start: Arc<Vec<bool>>,
     node_of: Arc<Vec<usize>>,
     n_wall: usize,
     positions: Arc<Vec<[f64; 3]>>,
@@ -129,16 +136,6 @@ impl WallModel {
             return Err(ThermalError::Plate {
                 reason: "a disc; the thin wall's plate is a grid of cells (a box): use the \
                          voxel model"
-                    .into(),
-            });
-        }
-        // One continuous bead is what the wall's nodes are: a path that breaks off (tracks
-        // with travel between them) is the voxel model's.
-        if let Some(i) = deps.iter().position(|d| d.start.is_some()) {
-            return Err(ThermalError::Schedule {
-                deposit: i,
-                reason: "starts a new track after a travel move; the thin wall models one \
-                         continuous bead (use the voxel model)"
                     .into(),
             });
         }
@@ -213,8 +210,11 @@ impl WallModel {
                 }
             }
         }
-        // Along the bead.
+        // Along the bead, but not across the travel between two tracks.
         for k in 0..nw.saturating_sub(1) {
+            if deps[l.first[k + 1]].start.is_some() {
+                continue;
+            }
             let area = 0.5 * (l.width[k] * l.height[k] + l.width[k + 1] * l.height[k + 1]);
             edges.push((
                 k,
@@ -227,11 +227,7 @@ impl WallModel {
         let mut contact_edges: HashMap<(usize, usize), (f64, f64)> = HashMap::new(); // area, length
         for (i, d) in deps.iter().enumerate() {
             let me = l.node_of[i];
-            let seg = if i == 0 {
-                d.width
-            } else {
-                dist(d.position, deps[i - 1].position)
-            };
+            let seg = seg_len(deps, i);
             let under = match d.support {
                 Some(sp) => l.node_of[sp],
                 None => {
@@ -291,6 +287,7 @@ impl WallModel {
         network.ledger.deposited = 0.0;
         Ok(WallModel {
             network,
+            track_start: Arc::new(l.first.iter().map(|&d| deps[d].start.is_some()).collect()),
             layout_first: Arc::new(l.first),
             node_of: Arc::new(l.node_of),
             n_wall: nw,
@@ -619,12 +616,7 @@ impl HeatRun for WallRun {
 
 /// The share of its node's mass that deposit i lays.
 fn segment_share(deps: &[Deposit], i: usize, length: &[f64], node_of: &[usize]) -> f64 {
-    let seg = if i == 0 {
-        deps[0].width
-    } else {
-        dist(deps[i].position, deps[i - 1].position).max(1e-6)
-    };
-    (seg / length[node_of[i]]).min(1.0)
+    (seg_len(deps, i) / length[node_of[i]]).min(1.0)
 }
 
 /// The arc's heat over the footprint: the nodes behind the torch along the path (its own node
@@ -643,7 +635,7 @@ fn footprint_weights(
     let (mut k, mut s) = (node, dist(m.positions[node], torch));
     while s <= footprint && m.network.active[k] {
         weights.push((k, (-3.0 * (s / footprint).powi(2)).exp()));
-        if k == 0 {
+        if k == 0 || m.track_start[k] {
             break;
         }
         s += dist(m.positions[k], m.positions[k - 1]);
@@ -660,7 +652,7 @@ fn bead_across(deps: &[Deposit], i: usize) -> [f64; 2] {
     let (a, b) = match i {
         0 if deps.len() > 1 => (deps[0].position, deps[1].position),
         0 => return [1.0, 0.0],
-        _ => (deps[i - 1].position, deps[i].position),
+        _ => (segment_start(deps, i), deps[i].position),
     };
     let (tx, ty) = (b[0] - a[0], b[1] - a[1]);
     let n = tx.hypot(ty);

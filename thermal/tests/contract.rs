@@ -338,3 +338,52 @@ fn a_disc_plate_is_round_on_voxels_and_refused_by_the_thin_wall() {
         Err(ThermalError::Plate { .. })
     ));
 }
+
+/// Three straight tracks laid one way, each after travel back with the arc off: both models take
+/// the breaks (the thin wall joins no node across the travel and its footprint stops at a
+/// track's start), keep their energy balance, and read the tracks' preheats alike.
+#[test]
+fn tracks_with_travel_between_them_on_both_models() {
+    let (n, len, h) = (25, 0.05, 2e-3);
+    let mut deps = Vec::new();
+    let mut t = 0.0;
+    for track in 0..3 {
+        t += 5.0; // the travel back
+        for k in 0..n {
+            let x = -len / 2.0 + len * (k + 1) as f64 / n as f64;
+            let arc = len / n as f64 / 5e-3;
+            t += arc;
+            deps.push(Deposit {
+                position: [x, 0.0, h * (track + 1) as f64],
+                time: t,
+                arc_time: arc,
+                heat: 1200.0 * arc,
+                width: 5e-3,
+                height: h,
+                axis: [0.0, 0.0, 1.0],
+                support: (track > 0).then(|| deps.len() - n),
+                start: (k == 0).then_some([-len / 2.0, 0.0, h * (track + 1) as f64]),
+            });
+        }
+    }
+    let mut preheats = Vec::new();
+    for model in models(Material::g3si()) {
+        let r = model
+            .simulate(&deps)
+            .unwrap_or_else(|e| panic!("{}: {e}", model.name()));
+        assert!(
+            r.balance_error.abs() < 1e-3,
+            "{}: {}",
+            model.name(),
+            r.balance_error
+        );
+        // The third track's middle, laid on the second.
+        preheats.push(r.points[2 * n + n / 2].preheat);
+    }
+    let (wall, voxel) = (preheats[0] - 293.15, preheats[1] - 293.15);
+    assert!(wall > 50.0 && voxel > 50.0, "rises {wall} K, {voxel} K");
+    assert!(
+        (wall / voxel - 1.0).abs() < 0.35,
+        "thin wall {wall} K, voxel {voxel} K above ambient"
+    );
+}

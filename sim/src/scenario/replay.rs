@@ -396,8 +396,8 @@ impl ReplayScenario {
                 "thermal",
                 "model",
                 format!("\"{}\"", raw.thermal.model),
-                "\"voxel\": a replayed toolpath has tracks with travel between them, and the \
-                 thin wall models one continuous bead",
+                "\"voxel\": a replay's probes are points in space, and the thin wall's nodes \
+                 are the bead's (it takes the tracks themselves: thermal's contract tests)",
             ));
         }
         Ok(ReplayScenario {
