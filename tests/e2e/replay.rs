@@ -257,3 +257,39 @@ fn the_in718_preset_is_the_gamma_tables() {
     }
     assert_eq!(files.density, preset.density);
 }
+
+/// The GAMMA wall on the thin wall (a box plate: the thin wall's plate is a grid of cells):
+/// each IR point reads the nearest bead node, and the agreement is what was measured on
+/// 2026-11-22 (RMS 269 °C, the thin wall cooler than the voxel model's 164 °C; docs/PHYSICS.md).
+#[test]
+fn gamma_wall_on_the_thin_wall() {
+    let Some(data) = validation_data() else {
+        return;
+    };
+    let dir = scratch("replay_gamma_fe");
+    let text = std::fs::read_to_string(root().join("scenarios/gamma_in718_wall.toml"))
+        .unwrap()
+        .replace("../../shared/validation-data", data.to_str().unwrap())
+        .replace("model = \"voxel\"", "model = \"fe\"")
+        .replace("plate_shape = \"disc\"", "");
+    std::fs::write(dir.join("gamma_fe.toml"), text).unwrap();
+    let out = dir.join("out");
+    let run = waamtwin(&[
+        "replay",
+        dir.join("gamma_fe.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+    // The camera's 80 K readings of half-filled pixels are dropped, not compared.
+    assert_eq!(r["readings_below_ambient"], 154);
+    assert!(r["samples"].as_u64().unwrap() > 170_000, "{r}");
+    let rms = r["rms_c"].as_f64().unwrap();
+    assert!((200.0..340.0).contains(&rms), "RMS {rms} °C");
+}

@@ -274,12 +274,12 @@ impl HeatModel {
     }
 
     /// Points whose temperature the run keeps, at most every `every` seconds
-    /// ([`RunResult::probes`]). The voxel model keeps them; the thin wall, whose nodes are the
-    /// bead's and not points in space, keeps none.
+    /// ([`RunResult::probes`]): the voxel model reads the nearest voxel, the thin wall the
+    /// nearest bead node or plate cell.
     pub fn set_probes(&mut self, points: Vec<[f64; 3]>, every: f64) {
-        if let HeatModel::Voxel(s) = self {
-            s.probes = points;
-            s.probe_every = every;
+        match self {
+            HeatModel::ThinWall(s) => (s.probes, s.probe_every) = (points, every),
+            HeatModel::Voxel(s) => (s.probes, s.probe_every) = (points, every),
         }
     }
 

@@ -11,8 +11,8 @@ use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Network, Surroundings};
 use crate::run::{
-    Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, RunResult, Snapshot, Support, Trace,
-    replay,
+    Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult, Snapshot,
+    Support, Trace, replay,
 };
 use crate::schedule::{Deposit, read_fractions, segment_start, validate};
 use std::collections::HashMap;
@@ -43,6 +43,12 @@ pub struct WallSettings {
     /// Keep the hottest laid metal at every step ([`crate::run::Hottest`]); off for the dwell
     /// planner's runs, whose checkpoints it would only make longer.
     pub trace_hottest: bool,
+    /// Points whose temperature is kept ([`crate::run::ProbeTrace`]), m: each reads the
+    /// nearest node (a bead node or a plate cell) whose centre lies within the larger of
+    /// `min_node` and the plate's cell of it, once that node is there.
+    pub probes: Vec<[f64; 3]>,
+    /// Least time between two kept probe samples, s (0: every step).
+    pub probe_every: f64,
 }
 
 struct Layout {
@@ -333,6 +339,9 @@ pub struct WallRun {
     next_snapshot: usize,
     traces: Vec<Trace>,
     hottest: Hottest,
+    probes: Vec<ProbeTrace>,
+    /// Per probe, its node once one lies within reach.
+    probe_nodes: Vec<Option<usize>>,
     power: Vec<f64>,
     below: Arc<Vec<usize>>,
     /// Time now, s; deposits laid so far.
@@ -377,6 +386,8 @@ impl WallRun {
             next_snapshot: 0,
             traces: s.traces.iter().map(|&d| Trace::new(d)).collect(),
             hottest: Hottest::default(),
+            probes: s.probes.iter().map(|&p| ProbeTrace::new(p)).collect(),
+            probe_nodes: vec![None; s.probes.len()],
             cooling_step: 1.0,
             power: vec![0.0; n],
             below: Arc::new(below),
@@ -425,6 +436,32 @@ impl WallRun {
         }
     }
 
+    /// Keep each probe's temperature, at most every `probe_every` seconds.
+    fn sample_probes(&mut self) {
+        let reach = self.settings.min_node.max(self.settings.plate.cell);
+        let (net, positions) = (&self.model.network, &self.model.positions);
+        for (trace, node) in self.probes.iter_mut().zip(&mut self.probe_nodes) {
+            let every = self.settings.probe_every;
+            if trace
+                .time
+                .last()
+                .is_some_and(|&t| self.now - t < every - 1e-12)
+            {
+                continue;
+            }
+            if node.is_none() {
+                *node = (0..net.len())
+                    .filter(|&k| net.active[k])
+                    .map(|k| (dist(positions[k], trace.position), k))
+                    .filter(|&(d, _)| d <= reach)
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .map(|(_, k)| k);
+            }
+            trace.time.push(self.now);
+            trace.temperature.push(node.map_or(f64::NAN, |k| net.t[k]));
+        }
+    }
+
     fn observe(&mut self, dt: f64) {
         let net = &self.model.network;
         let thr = self.settings.hot_threshold;
@@ -455,6 +492,7 @@ impl WallRun {
             });
             self.next_snapshot += 1;
         }
+        self.sample_probes();
     }
 }
 
@@ -599,7 +637,7 @@ impl HeatRun for WallRun {
             snapshots: self.snapshots,
             traces: self.traces,
             hottest: self.hottest,
-            probes: Vec::new(),
+            probes: self.probes,
             ledger: net.ledger,
             stored: net.stored(),
             balance_error: net.balance_error(),

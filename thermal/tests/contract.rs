@@ -39,6 +39,8 @@ fn models(material: Material) -> [HeatModel; 2] {
             lead: 10e-3,
             hot_threshold: 873.15,
             max_step: 30.0,
+            probes: vec![],
+            probe_every: 0.0,
             snapshot_times: vec![5.0, 25.0],
             traces: vec![],
             trace_hottest: false,

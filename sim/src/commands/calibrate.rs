@@ -118,7 +118,7 @@ pub fn run(
         )));
     };
     let path = waypoints(&s)?;
-    let m = measured(p)?;
+    let (m, _) = measured(p, s.thermal.ambient_k)?;
     let end_s = path
         .last()
         .map_or(0.0, |w| w.t_s)

@@ -77,9 +77,12 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
         )));
     }
     let material = material(&s.material)?;
-    let measured = match &s.probes {
-        Some(p) => Some(measured(p)?),
-        None => None,
+    let (measured, dropped) = match &s.probes {
+        Some(p) => {
+            let (m, dropped) = measured(p, s.thermal.ambient_k)?;
+            (Some(m), dropped)
+        }
+        None => (None, 0),
     };
     let mut dir = RunDir::create(out)?;
     let end_s = path.last().map_or(0.0, |w| w.t_s);
@@ -124,6 +127,7 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
             "wall_s": wall_s,
             "balance_error": result.balance_error,
             "window_s": window,
+            "readings_below_ambient": dropped,
             "rms_c": overall.map(|o| o.0),
             "samples": overall.map(|o| o.1),
             "probes": compared.iter().map(|c| json!({
@@ -235,17 +239,29 @@ pub fn material(spec: &MaterialSpec) -> Result<Material> {
     .map_err(|e| Error::input(format!("material {}: {e}", t.name)))
 }
 
-/// The measured series in °C.
-pub(crate) fn measured(p: &Probes) -> Result<probes::Series> {
+/// Readings this far below ambient are not of the part (an IR camera reads 80 K from a pixel
+/// that metal only partly fills): they count as no reading.
+const BELOW_AMBIENT_K: f64 = 5.0;
+
+/// The measured series in °C, and how many readings lay below ambient (dropped).
+pub(crate) fn measured(p: &Probes, ambient_k: f64) -> Result<(probes::Series, usize)> {
     let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
     let file = p.file.display().to_string();
     let mut s = probes::series(&read(&p.file)?, &file, p.time_column, &columns)?;
-    if p.kelvin {
-        for v in s.values.iter_mut().flatten().flatten() {
-            *v -= C;
+    let floor_c = ambient_k - C - BELOW_AMBIENT_K;
+    let mut dropped = 0;
+    for v in s.values.iter_mut().flatten() {
+        if let Some(x) = v {
+            if p.kelvin {
+                *x -= C;
+            }
+            if *x < floor_c {
+                *v = None;
+                dropped += 1;
+            }
         }
     }
-    Ok(s)
+    Ok((s, dropped))
 }
 
 /// The measured series' shortest step: the model keeps its probes at least that often.

@@ -116,6 +116,8 @@ pub fn heat_model_of(
             lead: t.lead_m,
             hot_threshold: t.hot_threshold_k,
             max_step: MAX_COOLING_STEP_S,
+            probes: vec![],
+            probe_every: 0.0,
             snapshot_times,
             traces,
             trace_hottest: false,

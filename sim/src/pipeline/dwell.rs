@@ -629,6 +629,8 @@ mod tests {
             lead: 10e-3,
             hot_threshold: 873.15,
             max_step: 30.0,
+            probes: vec![],
+            probe_every: 0.0,
             snapshot_times: vec![],
             traces: vec![],
             trace_hottest: false,

@@ -3,7 +3,7 @@
 //! probes the part was measured with. Every key is documented in `scenarios/README.md`; file
 //! paths are relative to the scenario's folder.
 
-use super::{Checker, RawThermal, ThermalModel, ThermalSettings, toml_error};
+use super::{Checker, RawThermal, ThermalSettings, toml_error};
 use crate::error::{Error, Result};
 use crate::pipeline::replay::Laying;
 use serde::{Deserialize, Serialize};
@@ -391,15 +391,6 @@ impl ReplayScenario {
             }
         };
         let thermal = super::thermal(&raw.thermal, p.bead_width_mm, &c)?;
-        if thermal.model != ThermalModel::Voxel {
-            return Err(c.fail(
-                "thermal",
-                "model",
-                format!("\"{}\"", raw.thermal.model),
-                "\"voxel\": a replay's probes are points in space, and the thin wall's nodes \
-                 are the bead's (it takes the tracks themselves: thermal's contract tests)",
-            ));
-        }
         Ok(ReplayScenario {
             toolpath: base.join(&raw.toolpath.file),
             format,
@@ -788,12 +779,9 @@ mod tests {
             "{}",
             e.message
         );
+        // The thin wall replays too, on a box plate.
         let fe = GOOD.replace("model = \"voxel\"", "model = \"fe\"");
-        let e = ReplayScenario::parse(&fe, "r.toml", Path::new(".")).unwrap_err();
-        assert!(
-            e.message
-                .contains("thermal.model = \"fe\"; expected \"voxel\"")
-        );
+        assert!(ReplayScenario::parse(&fe, "r.toml", Path::new(".")).is_ok());
         let unit = GOOD.replace("W/(mm K)", "W/mK");
         let e = ReplayScenario::parse(&unit, "r.toml", Path::new(".")).unwrap_err();
         assert!(e.message.contains("material.conductivity_unit = \"W/mK\""));
