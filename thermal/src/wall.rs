@@ -342,6 +342,8 @@ pub struct WallRun {
     probes: Vec<ProbeTrace>,
     /// Per probe, its node once one lies within reach.
     probe_nodes: Vec<Option<usize>>,
+    /// Deposits laid when the nodes were last searched: none is switched on between deposits.
+    probes_searched_at: Option<usize>,
     power: Vec<f64>,
     below: Arc<Vec<usize>>,
     /// Time now, s; deposits laid so far.
@@ -388,6 +390,7 @@ impl WallRun {
             hottest: Hottest::default(),
             probes: s.probes.iter().map(|&p| ProbeTrace::new(p)).collect(),
             probe_nodes: vec![None; s.probes.len()],
+            probes_searched_at: None,
             cooling_step: 1.0,
             power: vec![0.0; n],
             below: Arc::new(below),
@@ -440,7 +443,18 @@ impl WallRun {
     fn sample_probes(&mut self) {
         let reach = self.settings.min_node.max(self.settings.plate.cell);
         let (net, positions) = (&self.model.network, &self.model.positions);
+        // Nodes switch on only when a deposit is laid: search again only then.
+        let search = self.probes_searched_at != Some(self.laid);
+        self.probes_searched_at = Some(self.laid);
         for (trace, node) in self.probes.iter_mut().zip(&mut self.probe_nodes) {
+            if node.is_none() && search {
+                *node = (0..net.len())
+                    .filter(|&k| net.active[k])
+                    .map(|k| (dist(positions[k], trace.position), k))
+                    .filter(|&(d, _)| d <= reach)
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .map(|(_, k)| k);
+            }
             let every = self.settings.probe_every;
             if trace
                 .time
@@ -448,14 +462,6 @@ impl WallRun {
                 .is_some_and(|&t| self.now - t < every - 1e-12)
             {
                 continue;
-            }
-            if node.is_none() {
-                *node = (0..net.len())
-                    .filter(|&k| net.active[k])
-                    .map(|k| (dist(positions[k], trace.position), k))
-                    .filter(|&(d, _)| d <= reach)
-                    .min_by(|a, b| a.0.total_cmp(&b.0))
-                    .map(|(_, k)| k);
             }
             trace.time.push(self.now);
             trace.temperature.push(node.map_or(f64::NAN, |k| net.t[k]));

@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::measured::probes::Series;
 use crate::output::RunDir;
 use crate::pipeline::calibrate::{self, Range, Settings};
-use crate::pipeline::replay::{self, Laying};
+use crate::pipeline::replay;
 use crate::progress::Stage;
 use crate::scenario::ThermalSettings;
 use crate::scenario::replay::{Parameter, ReplayScenario};
@@ -23,12 +23,12 @@ use std::path::Path;
 use std::time::Instant;
 use thermal::run::ProbeTrace;
 
-/// The scenario's laying and thermal settings with `values` of `parameters` put in.
-fn with(s: &ReplayScenario, parameters: &[Parameter], values: &[f64]) -> (Laying, ThermalSettings) {
-    let (mut l, mut t) = (s.laying.clone(), s.thermal.clone());
+/// The scenario's efficiency and thermal settings with `values` of `parameters` put in.
+fn with(s: &ReplayScenario, parameters: &[Parameter], values: &[f64]) -> (f64, ThermalSettings) {
+    let (mut l, mut t) = (s.laying.efficiency, s.thermal.clone());
     for (p, &v) in parameters.iter().zip(values) {
         match p {
-            Parameter::Efficiency => l.efficiency = v,
+            Parameter::Efficiency => l = v,
             Parameter::Convection => t.convection_w_m2k = v,
             Parameter::Emissivity => t.emissivity = v,
             Parameter::TableContact => t.table_contact_w_m2k = v,
@@ -44,8 +44,8 @@ fn traces(
     values: &[f64],
     until_s: f64,
 ) -> Result<Vec<ProbeTrace>> {
-    let (laying, thermal) = with(r.s, parameters, values);
-    Ok(r.run(&laying, &thermal, until_s)?.1.probes)
+    let (efficiency, thermal) = with(r.s, parameters, values);
+    Ok(r.run(efficiency, &thermal, until_s)?.1.probes)
 }
 
 /// The measured samples (probe, index) inside `window` where the first run predicts too.
@@ -129,7 +129,7 @@ pub fn run(
         .unwrap_or([end_s / 2.0, end_s]);
     let r = Replay {
         s: &s,
-        path,
+        deps: replay::deposits(&path, &s.laying),
         material: material(&s.material)?,
         every_s: sampling_interval(&m.t_s),
     };

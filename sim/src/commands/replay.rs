@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::measured::{gcode, machine_log, probes, table, toolpath};
 use crate::output::RunDir;
 use crate::pipeline::deposition::heat_model_of;
-use crate::pipeline::replay::{self, Agreement, Laying, Pass, Sample};
+use crate::pipeline::replay::{self, Agreement, Pass, Sample};
 use crate::progress::Stage;
 use crate::scenario::ThermalSettings;
 use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
@@ -31,26 +31,39 @@ pub struct Compared {
     pub passes: Vec<Pass>,
 }
 
-/// A replay's fixed inputs: what every run of it (a calibration makes many) shares.
+/// A replay's fixed inputs: what every run of it (a calibration makes many) shares. The
+/// schedule is cut once (finding supports is quadratic in the deposits); only its heat
+/// changes with the efficiency.
 pub(crate) struct Replay<'a> {
     pub s: &'a ReplayScenario,
-    pub path: Vec<toolpath::Waypoint>,
+    /// The path laid as the scenario says (`s.laying`).
+    pub deps: Vec<Deposit>,
     pub material: Material,
     /// How often the probes are kept, s.
     pub every_s: f64,
 }
 
 impl Replay<'_> {
-    /// Heat the path laid as `laying` with `thermal` from the start until `until_s` (cooling
-    /// after the last deposit if that comes later; deposits after it left out).
+    /// Heat the path at arc efficiency (or absorptivity) `efficiency` with `thermal` from the
+    /// start until `until_s` (cooling after the last deposit if that comes later; deposits
+    /// after it left out).
     pub fn run(
         &self,
-        laying: &Laying,
+        efficiency: f64,
         thermal: &ThermalSettings,
         until_s: f64,
     ) -> Result<(Vec<Deposit>, RunResult)> {
-        let mut deps = replay::deposits(&self.path, laying);
-        deps.retain(|d| d.arc_start() < until_s);
+        // The heat is η·P·t: linear in the efficiency.
+        let scale = efficiency / self.s.laying.efficiency;
+        let deps: Vec<Deposit> = self
+            .deps
+            .iter()
+            .filter(|d| d.arc_start() < until_s)
+            .map(|d| Deposit {
+                heat: d.heat * scale,
+                ..*d
+            })
+            .collect();
         let mut model = heat_model_of(self.material.clone(), thermal, &deps, vec![], vec![]);
         let probes = self.s.probes.as_ref().map_or(Vec::new(), |p| {
             p.points.iter().map(|q| q.position_m).collect()
@@ -93,13 +106,13 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     let r = Replay {
         s: &s,
         every_s: measured.as_ref().map_or(1.0, |m| sampling_interval(&m.t_s)),
-        path,
+        deps,
         material,
     };
     let clock = Instant::now();
     let (deps, result) = {
         let _stage = Stage::start("heating the replayed toolpath");
-        r.run(&s.laying, &s.thermal, until_s)?
+        r.run(s.laying.efficiency, &s.thermal, until_s)?
     };
     let wall_s = clock.elapsed().as_secs_f64();
     let build_s = deps.last().map_or(0.0, |d| d.time);
