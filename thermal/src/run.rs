@@ -28,6 +28,9 @@ pub struct Plate {
     /// A disc of diameter `size[0]` about `centre` (`size[1]` the same), not a box. The voxel
     /// model takes it; the thin wall, whose plate is a grid of cells, refuses it.
     pub disc: bool,
+    /// The plate's own material where it is not the deposit's (an IN718 wall on a carbon-steel
+    /// plate). The voxel model takes it; the thin wall, one material throughout, refuses it.
+    pub material: Option<crate::material::Material>,
 }
 
 /// What a deposit is laid on.
@@ -288,6 +291,14 @@ impl HeatModel {
     pub fn set_source(&mut self, source: crate::voxel::HeatSource) {
         if let HeatModel::Voxel(s) = self {
             s.source = source;
+        }
+    }
+
+    /// The plate's own material (None: the deposit's). The thin wall refuses one at start.
+    pub fn set_plate_material(&mut self, material: Option<crate::material::Material>) {
+        match self {
+            HeatModel::ThinWall(s) => s.plate.material = material,
+            HeatModel::Voxel(s) => s.plate.material = material,
         }
     }
 

@@ -145,6 +145,13 @@ impl WallModel {
                     .into(),
             });
         }
+        if s.plate.material.is_some() {
+            return Err(ThermalError::Plate {
+                reason: "of its own material; the thin wall is one material throughout: use \
+                         the voxel model"
+                    .into(),
+            });
+        }
         let l = layout(deps, s.min_node);
         let nw = l.first.len();
         let rho = s.material.density;

@@ -27,6 +27,7 @@ fn models(material: Material) -> [HeatModel; 2] {
         cell: 5e-3,
         layers: 3,
         disc: false,
+        material: None,
     };
     [
         HeatModel::ThinWall(WallSettings {
@@ -335,6 +336,30 @@ fn a_disc_plate_is_round_on_voxels_and_refused_by_the_thin_wall() {
     if let HeatModel::ThinWall(s) = &mut wall {
         s.plate.disc = true;
     }
+    assert!(matches!(
+        wall.simulate(&deps),
+        Err(ThermalError::Plate { .. })
+    ));
+}
+
+/// A plate of its own material: a copper plate under a steel wall draws more of the heat away
+/// than a steel one (the voxel model keeps its energy balance with it), and the thin wall, one
+/// material throughout, says it cannot.
+#[test]
+fn a_plate_of_its_own_material_on_voxels_and_refused_by_the_thin_wall() {
+    let deps = schedule();
+    let [mut wall, mut voxel] = models(Material::g3si());
+    let same = voxel.simulate(&deps).unwrap();
+    let copper = Material::constant(8960.0, 385.0, 390.0, 1356.0, 2.05e5);
+    voxel.set_plate_material(Some(copper));
+    let drawn = voxel.simulate(&deps).unwrap();
+    assert!(drawn.balance_error.abs() < 1e-3, "{}", drawn.balance_error);
+    let first = |r: &thermal::RunResult| r.points[..20].iter().map(|p| p.peak).sum::<f64>();
+    assert!(
+        first(&drawn) < first(&same) - 20.0 * 10.0,
+        "the first revolution's peaks fall"
+    );
+    wall.set_plate_material(Some(Material::g3si()));
     assert!(matches!(
         wall.simulate(&deps),
         Err(ThermalError::Plate { .. })

@@ -23,6 +23,7 @@ fn plate() -> Plate {
         cell: 5e-3,
         layers: 3,
         disc: false,
+        material: None,
     }
 }
 

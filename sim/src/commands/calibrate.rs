@@ -4,17 +4,20 @@
 //! calibration.json, probes.csv (the fitted model at every sample), probes.png.
 //!
 //! A fit run stops at the end of the fit window: the model is the same up to there whatever
-//! comes after, so a fit over the first half of a build costs half a build per run. The two
-//! full runs (before and after) give the held-out agreement.
+//! comes after, so a fit over the first half of a build costs half a build per run. Every
+//! parameter acts from the first deposit on, so no fit run can start later than t = 0; but the
+//! runs with the starting values and with the fitted ones are kept where they stopped
+//! (checkpoints), and the held-out window is reached by going on from them rather than by two
+//! runs from the start.
 
 use super::replay::{
-    Replay, compare, material, measured, overall, probes_csv, sampling_interval, waypoints,
+    Replay, compare, material_of, measured, overall, probes_csv, sampling_interval, waypoints,
 };
 use crate::error::{Error, Result};
 use crate::measured::probes::Series;
 use crate::output::RunDir;
 use crate::pipeline::calibrate::{self, Range, Settings};
-use crate::pipeline::replay;
+use crate::pipeline::replay::{self, advance};
 use crate::progress::Stage;
 use crate::scenario::ThermalSettings;
 use crate::scenario::replay::{Parameter, ReplayScenario};
@@ -22,6 +25,8 @@ use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
 use thermal::run::ProbeTrace;
+use thermal::schedule::Deposit;
+use thermal::{HeatRun, ModelRun};
 
 /// The scenario's efficiency and thermal settings with `values` of `parameters` put in.
 fn with(s: &ReplayScenario, parameters: &[Parameter], values: &[f64]) -> (f64, ThermalSettings) {
@@ -37,15 +42,33 @@ fn with(s: &ReplayScenario, parameters: &[Parameter], values: &[f64]) -> (f64, T
     (l, t)
 }
 
-/// The probes' traces with `values` of `parameters`, from the start until `until_s`.
-fn traces(
-    r: &Replay,
-    parameters: &[Parameter],
-    values: &[f64],
-    until_s: f64,
-) -> Result<Vec<ProbeTrace>> {
+/// A run with `values` of `parameters` stopped at the end of the fit window: the probes' traces
+/// so far, and the run itself to go on from (its checkpoint).
+#[derive(Clone)]
+struct Stopped {
+    values: Vec<f64>,
+    traces: Vec<ProbeTrace>,
+    run: ModelRun,
+    deps: Vec<Deposit>,
+}
+
+/// Run with `values` of `parameters` from the start until `until_s`.
+fn stopped(r: &Replay, parameters: &[Parameter], values: &[f64], until_s: f64) -> Result<Stopped> {
     let (efficiency, thermal) = with(r.s, parameters, values);
-    Ok(r.run(efficiency, &thermal, until_s)?.1.probes)
+    let (deps, mut run) = r.start(efficiency, &thermal)?;
+    advance(&mut run, &deps, until_s)?;
+    Ok(Stopped {
+        values: values.to_vec(),
+        traces: run.clone().finish().probes,
+        run,
+        deps,
+    })
+}
+
+/// Go on from a stopped run to `until_s`: the probes' traces from the start.
+fn resumed(mut s: Stopped, until_s: f64) -> Result<Vec<ProbeTrace>> {
+    advance(&mut s.run, &s.deps, until_s)?;
+    Ok(s.run.finish().probes)
 }
 
 /// The measured samples (probe, index) inside `window` where the first run predicts too.
@@ -130,7 +153,8 @@ pub fn run(
     let r = Replay {
         s: &s,
         deps: replay::deposits(&path, &s.laying),
-        material: material(&s.material)?,
+        material: material_of(&s.material)?,
+        plate_material: s.plate_material.as_ref().map(material_of).transpose()?,
         every_s: sampling_interval(&m.t_s),
     };
     let mut dir = RunDir::create(out)?;
@@ -150,8 +174,8 @@ pub fn run(
     };
     let clock = Instant::now();
     let stage = Stage::start("calibrating: each step a run of the heat model");
-    let first = traces(&r, &names, &start, fit_w[1])?;
-    let samples = fit_samples(&m, &first, fit_w);
+    let first = stopped(&r, &names, &start, fit_w[1])?;
+    let samples = fit_samples(&m, &first.traces, fit_w);
     if samples.is_empty() {
         return Err(Error::input(format!(
             "{name}: no probe reads inside the fit window {fit_w:?} s; expected some samples there"
@@ -162,20 +186,44 @@ pub fn run(
         independent: independent(&m, &samples),
         ..Settings::default()
     };
-    let mut seen_first = false;
+    // The fit ends at a point it evaluated within its last iteration or the Jacobian after
+    // it (at most 2n + 2 evaluations back, n parameters): keep that many stopped runs, and the
+    // first (the starting values, as the fit put them), which `before` goes on from.
+    let keep = 2 * names.len() + 3;
+    let mut recent: Vec<Stopped> = Vec::new();
+    let mut first = Some(first);
     let fit = calibrate::fit(&start, &ranges, settings, |values| {
-        // The first evaluation is the run made above.
-        let traces = match seen_first {
-            false => {
-                seen_first = true;
-                first.clone()
-            }
-            true => traces(&r, &names, values, fit_w[1])?,
+        let run = match first.take() {
+            // The first evaluation is the run made above.
+            Some(f) => Stopped {
+                values: values.to_vec(),
+                ..f
+            },
+            None => stopped(&r, &names, values, fit_w[1])?,
         };
-        Ok::<_, Error>(residuals(&m, &traces, &samples))
+        let residuals = residuals(&m, &run.traces, &samples);
+        recent.push(run);
+        if recent.len() > keep + 1 {
+            recent.remove(1);
+        }
+        Ok::<_, Error>(residuals)
     })?;
-    let before = traces(&r, &names, &start, end_s)?;
-    let after = traces(&r, &names, &fit.values, end_s)?;
+    let before = recent.first().cloned();
+    let after = recent
+        .iter()
+        .rev()
+        .find(|s| s.values == fit.values)
+        .cloned();
+    let (before, after) = match (before, after) {
+        (Some(b), Some(a)) => (b, a),
+        // Not reached while `keep` holds what the fit can end at; a run from the start if so.
+        (b, a) => (
+            b.map_or_else(|| stopped(&r, &names, &start, fit_w[1]), Ok)?,
+            a.map_or_else(|| stopped(&r, &names, &fit.values, fit_w[1]), Ok)?,
+        ),
+    };
+    drop(recent);
+    let (before, after) = (resumed(before, end_s)?, resumed(after, end_s)?);
     drop(stage);
     let wall_s = clock.elapsed().as_secs_f64();
     let judge = |traces: &[ProbeTrace], w: [f64; 2]| overall(&compare(p, &m, traces, w, &[]));
@@ -217,6 +265,8 @@ pub fn run(
             "fit_samples": samples.len(),
             "independent_samples": settings.independent,
             "runs": fit.runs + 2,
+            // The two runs that judge the held-out window went on from the fit's end.
+            "resumed_from_checkpoint": 2,
             "iterations": fit.iterations,
             "wall_s": wall_s,
         }),
@@ -243,7 +293,8 @@ pub fn run(
         .collect();
     let f = |o: Option<f64>| o.map_or("-".into(), |v| format!("{v:.0}"));
     Ok(format!(
-        "{}; RMS over the fit window {} → {} °C, held out {} → {} °C; {} runs, {wall_s:.0} s",
+        "{}; RMS over the fit window {} → {} °C, held out {} → {} °C; {} runs (2 resumed at the \
+         fit's end), {wall_s:.0} s",
         values.join(", "),
         f(rms(fit_before)),
         f(rms(fit_after)),

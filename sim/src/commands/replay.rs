@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::measured::{gcode, machine_log, probes, table, toolpath};
 use crate::output::RunDir;
 use crate::pipeline::deposition::heat_model_of;
-use crate::pipeline::replay::{self, Agreement, Pass, Sample};
+use crate::pipeline::replay::{self, Agreement, Pass, Sample, advance};
 use crate::progress::Stage;
 use crate::scenario::ThermalSettings;
 use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
@@ -16,11 +16,11 @@ use serde_json::json;
 use std::fmt::Write;
 use std::path::Path;
 use std::time::Instant;
-use thermal::HeatRun;
 use thermal::ZERO_CELSIUS_K as C;
 use thermal::material::Material;
 use thermal::run::RunResult;
 use thermal::schedule::Deposit;
+use thermal::{HeatRun, ModelRun};
 
 /// One probe's comparison.
 pub struct Compared {
@@ -39,6 +39,8 @@ pub(crate) struct Replay<'a> {
     /// The path laid as the scenario says (`s.laying`).
     pub deps: Vec<Deposit>,
     pub material: Material,
+    /// The plate's own material, where it is not the deposit's.
+    pub plate_material: Option<Material>,
     /// How often the probes are kept, s.
     pub every_s: f64,
 }
@@ -53,12 +55,24 @@ impl Replay<'_> {
         thermal: &ThermalSettings,
         until_s: f64,
     ) -> Result<(Vec<Deposit>, RunResult)> {
+        let (deps, mut run) = self.start(efficiency, thermal)?;
+        advance(&mut run, &deps, until_s)?;
+        let laid = run.laid();
+        Ok((deps[..laid].to_vec(), run.finish()))
+    }
+
+    /// The model for the whole path at `efficiency` with `thermal`, at the first arc: what
+    /// [`advance`] drives, and a clone of it a checkpoint to go on from.
+    pub fn start(
+        &self,
+        efficiency: f64,
+        thermal: &ThermalSettings,
+    ) -> Result<(Vec<Deposit>, ModelRun)> {
         // The heat is η·P·t: linear in the efficiency.
         let scale = efficiency / self.s.laying.efficiency;
         let deps: Vec<Deposit> = self
             .deps
             .iter()
-            .filter(|d| d.arc_start() < until_s)
             .map(|d| Deposit {
                 heat: d.heat * scale,
                 ..*d
@@ -70,12 +84,9 @@ impl Replay<'_> {
         });
         model.set_probes(probes, self.every_s);
         model.set_source(self.s.source);
-        let mut run = model.start(&deps)?;
-        thermal::run::replay(&mut run, &deps)?;
-        if until_s > run.now() {
-            run.cool(until_s - run.now())?;
-        }
-        Ok((deps, run.finish()))
+        model.set_plate_material(self.plate_material.clone());
+        let run = model.start(&deps)?;
+        Ok((deps, run))
     }
 }
 
@@ -89,7 +100,7 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
             s.toolpath.display()
         )));
     }
-    let material = material(&s.material)?;
+    let material = material_of(&s.material)?;
     let (measured, dropped) = match &s.probes {
         Some(p) => {
             let (m, dropped) = measured(p, s.thermal.ambient_k)?;
@@ -108,6 +119,7 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
         every_s: measured.as_ref().map_or(1.0, |m| sampling_interval(&m.t_s)),
         deps,
         material,
+        plate_material: s.plate_material.as_ref().map(material_of).transpose()?,
     };
     let clock = Instant::now();
     let (deps, result) = {
@@ -229,7 +241,7 @@ pub(crate) fn waypoints(s: &ReplayScenario) -> Result<Vec<toolpath::Waypoint>> {
     Ok(path)
 }
 
-pub fn material(spec: &MaterialSpec) -> Result<Material> {
+pub fn material_of(spec: &MaterialSpec) -> Result<Material> {
     let t = match spec {
         MaterialSpec::G3Si => return Ok(Material::g3si()),
         MaterialSpec::In718 => return Ok(Material::in718()),

@@ -40,8 +40,8 @@ pub struct Fit {
     /// Per parameter: RMS over the samples of ∂residual/∂parameter, residual units per
     /// parameter unit (how strongly the data see it).
     pub sensitivity: Vec<f64>,
-    /// Per parameter: 95 % confidence interval; None where JᵀJ is singular (the data do not
-    /// constrain that combination).
+    /// Per parameter: 95 % confidence interval, cut at the parameter's bounds; None where JᵀJ
+    /// is singular (the data do not constrain that combination).
     pub ci95: Vec<Option<[f64; 2]>>,
 }
 
@@ -205,9 +205,14 @@ fn statistics(
     let ci = (0..n)
         .map(|i| {
             let var = inverse.as_ref()?[(i, i)] * s2 * inflate;
+            // Cut at the bounds: a convection coefficient below zero is no answer, and an
+            // interval cut there says the data do not hold the parameter on that side.
             (var.is_finite() && var >= 0.0).then(|| {
                 let half = 1.96 * var.sqrt() * width(i);
-                [values[i] - half, values[i] + half]
+                [
+                    (values[i] - half).max(ranges[i].low),
+                    (values[i] + half).min(ranges[i].high),
+                ]
             })
         })
         .collect();
@@ -277,5 +282,7 @@ mod tests {
         })
         .unwrap();
         assert!((f.values[0] - 2.0).abs() < 1e-9, "{:?}", f.values);
+        let [lo, hi] = f.ci95[0].expect("an interval");
+        assert!(lo < 2.0 && hi == 2.0, "{lo}..{hi}: cut at the upper bound");
     }
 }

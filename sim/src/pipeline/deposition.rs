@@ -104,6 +104,7 @@ pub fn heat_model_of(
         cell: t.plate_cell_m,
         layers: PLATE_LAYERS,
         disc: t.plate_disc,
+        material: None,
     };
     match t.model {
         ThermalModel::Fe => HeatModel::ThinWall(WallSettings {

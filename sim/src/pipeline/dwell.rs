@@ -622,6 +622,7 @@ mod tests {
                 cell: 5e-3,
                 layers: 3,
                 disc: false,
+                material: None,
             },
             min_node: 3e-3,
             deposit_temperature: 1823.15,

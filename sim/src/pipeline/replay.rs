@@ -10,6 +10,7 @@ use crate::measured::toolpath::Waypoint;
 use thermal::ZERO_CELSIUS_K as C;
 use thermal::run::ProbeTrace;
 use thermal::schedule::Deposit;
+use thermal::{HeatRun, ThermalError};
 
 /// How the toolpath's metal is laid, SI.
 #[derive(Debug, Clone, PartialEq)]
@@ -219,6 +220,33 @@ pub fn errors(pairs: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64)> {
     (n > 0).then(|| ((sq / n as f64).sqrt(), sum / n as f64))
 }
 
+/// Go on with `run` (started on `deps`, wherever it stands) until `until_s`: lay the deposits
+/// whose arc starts before then, each after the gap the schedule leaves before it, and cool
+/// to `until_s` if the last comes earlier. A run stopped at T and advanced to T' gives what
+/// one advanced to T' at once does, but for how its cooling is cut into steps.
+pub fn advance(run: &mut impl HeatRun, deps: &[Deposit], until_s: f64) -> Result<(), ThermalError> {
+    for (i, d) in deps.iter().enumerate().skip(run.laid()) {
+        if d.arc_start() >= until_s {
+            break;
+        }
+        let previous_end = match i {
+            0 => d.arc_start(),
+            _ => deps[i - 1].time,
+        };
+        // From the schedule's own times, as `thermal::run::replay` lays them, unless the run
+        // was cooled past the previous end (stopped at a window's end in between).
+        let from = match run.now() > previous_end + 1e-9 {
+            true => run.now(),
+            false => previous_end,
+        };
+        run.deposit(i, (d.arc_start() - from).max(0.0))?;
+    }
+    if until_s > run.now() {
+        run.cool(until_s - run.now())?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -310,5 +338,83 @@ mod tests {
         assert!((a.rms_c - 10.0).abs() < 1e-9);
         assert!(a.bias_c.abs() < 1e-9);
         assert!(agreement(&s, (5.0, 6.0)).is_none());
+    }
+}
+
+#[cfg(test)]
+mod checkpoint_tests {
+    use super::*;
+    use crate::pipeline::deposition::heat_model_of;
+    use crate::pipeline::params::{ThermalModel, ThermalSettings};
+
+    /// A run stopped in a gap of the schedule (a calibration's fit window ending between two
+    /// tracks) and advanced from its clone ends where a run advanced at once does: the same
+    /// deposits laid, every deposit's metal within 0.1 K (the cooling is cut into steps
+    /// differently), on the voxel model with a plate of its own material.
+    #[test]
+    fn a_run_resumed_from_its_checkpoint_ends_where_one_run_does() {
+        let path: Vec<Waypoint> = (0..6)
+            .flat_map(|k| {
+                let (t, z) = (10.0 * k as f64, 1.5 * (k + 1) as f64);
+                let at = |t_s, x, on| Waypoint {
+                    t_s,
+                    position_mm: [x, 0.0, z],
+                    on,
+                    power_w: None,
+                };
+                [at(t, -15.0, false), at(t + 5.0, 15.0, true)]
+            })
+            .collect();
+        let l = Laying {
+            power_w: 2000.0,
+            efficiency: 0.8,
+            width_m: 4e-3,
+            height_m: 1.5e-3,
+            deposit_m: 2e-3,
+        };
+        let deps = deposits(&path, &l);
+        let t = ThermalSettings {
+            table_contact_w_m2k: 100.0,
+            plate_cell_m: 5e-3,
+            node_m: 3e-3,
+            deposit_k: 1823.15,
+            footprint_m: 4e-3,
+            hot_threshold_k: 873.15,
+            temperature_dependent: true,
+            voxel_m: 2e-3,
+            model: ThermalModel::Voxel,
+            ambient_k: 293.15,
+            convection_w_m2k: 15.0,
+            emissivity: 0.6,
+            plate_m: [60e-3, 30e-3, 10e-3],
+            plate_disc: false,
+            lead_m: 10e-3,
+        };
+        let mut model = heat_model_of(
+            thermal::material::Material::in718(),
+            &t,
+            &deps,
+            vec![],
+            vec![],
+        );
+        model.set_plate_material(Some(thermal::material::Material::g3si()));
+        let (end, gap) = (62.0, 27.5);
+        let mut once = model.start(&deps).unwrap();
+        advance(&mut once, &deps, end).unwrap();
+        let mut stopped = model.start(&deps).unwrap();
+        advance(&mut stopped, &deps, gap).unwrap();
+        assert!((stopped.now() - gap).abs() < 1e-9 && stopped.laid() < deps.len());
+        let mut resumed = stopped.clone();
+        advance(&mut resumed, &deps, end).unwrap();
+        assert_eq!((once.laid(), resumed.laid()), (deps.len(), deps.len()));
+        assert!((once.now() - resumed.now()).abs() < 1e-9);
+        let worst = (0..deps.len())
+            .map(|i| (once.temperature_of(i) - resumed.temperature_of(i)).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 0.1, "{worst} K");
+        let hottest = (0..deps.len())
+            .map(|i| once.temperature_of(i))
+            .fold(0.0, f64::max);
+        assert!(hottest > 400.0, "{hottest} K: the part still warm");
     }
 }

@@ -532,7 +532,8 @@ pub fn probe_plot(
     // The same six the replay's run.rrd opens on.
     let shown = super::replay::shown(series.len());
     draw(dir, name, |area| {
-        let panels = area.split_evenly((3, 2));
+        // Two columns, as many rows as the probes shown need (three at most).
+        let panels = area.split_evenly((shown.len().div_ceil(2), 2));
         for (panel, &k) in panels.iter().zip(&shown) {
             probe_panel(panel, title, series[k], window)?;
         }

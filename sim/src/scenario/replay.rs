@@ -16,6 +16,9 @@ pub struct RawReplay {
     pub toolpath: RawToolpath,
     pub process: RawLaying,
     pub material: RawTables,
+    /// The plate's own material, in the same form (voxel model only); absent: the deposit's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plate_material: Option<RawTables>,
     #[serde(default)]
     pub thermal: RawThermal,
     pub probes: Option<RawProbes>,
@@ -333,6 +336,8 @@ pub struct ReplayScenario {
     pub laying: Laying,
     pub source: thermal::voxel::HeatSource,
     pub material: MaterialSpec,
+    /// The plate's own material, where it is not the deposit's.
+    pub plate_material: Option<MaterialSpec>,
     pub thermal: ThermalSettings,
     pub probes: Option<Probes>,
     pub window_s: Option<[f64; 2]>,
@@ -416,7 +421,11 @@ impl ReplayScenario {
                 deposit_m: raw.toolpath.deposit_mm * 1e-3,
             },
             source: source(p, &c)?,
-            material: tables(&raw.material, &c, base)?,
+            material: tables(&raw.material, "material", &c, base)?,
+            plate_material: match &raw.plate_material {
+                Some(m) => Some(plate_material(m, &raw.thermal, &c, base)?),
+                None => None,
+            },
             thermal,
             probes: raw
                 .probes
@@ -437,7 +446,28 @@ impl ReplayScenario {
     }
 }
 
-fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
+/// `[plate_material]`: a material as `[material]` gives one, for the voxel model's plate.
+fn plate_material(
+    m: &RawTables,
+    thermal: &RawThermal,
+    c: &Checker,
+    base: &Path,
+) -> Result<MaterialSpec> {
+    if thermal.model != "voxel" {
+        return Err(c.fail_text(
+            "plate_material",
+            "preset",
+            format!(
+                "a plate of its own material with thermal.model = \"{}\"; expected \
+                 thermal.model = \"voxel\" (the thin wall is one material throughout)",
+                thermal.model
+            ),
+        ));
+    }
+    tables(m, "plate_material", c, base)
+}
+
+fn tables(m: &RawTables, section: &str, c: &Checker, base: &Path) -> Result<MaterialSpec> {
     if let Some(p) = &m.preset {
         let others = m.name.is_some()
             || m.density_kg_m3.is_some()
@@ -447,12 +477,12 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
             ("G3Si", false) => Ok(MaterialSpec::G3Si),
             ("IN718", false) => Ok(MaterialSpec::In718),
             ("G3Si" | "IN718", true) => Err(c.fail_text(
-                "material",
+                section,
                 "preset",
                 format!("preset = \"{p}\" with table keys beside it; expected one or the other"),
             )),
             (other, _) => Err(c.fail(
-                "material",
+                section,
                 "preset",
                 format!("\"{other}\""),
                 "\"G3Si\" or \"IN718\", or tables instead of a preset",
@@ -461,7 +491,7 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
     }
     let need = |key: &str| {
         c.fail_text(
-            "material",
+            section,
             key,
             format!("{key} is missing; expected a preset or every table key"),
         )
@@ -480,9 +510,9 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
         latent_j_kg: number(m.latent_j_kg, "latent_j_kg")?,
     };
     let m = &m;
-    c.positive("material", "density_kg_m3", m.density_kg_m3, 30_000.0)?;
+    c.positive(section, "density_kg_m3", m.density_kg_m3, 30_000.0)?;
     c.range(
-        "material",
+        section,
         "solidus_c",
         m.solidus_c,
         0.0,
@@ -490,7 +520,7 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
         "a temperature in [0, 3500] °C",
     )?;
     c.range(
-        "material",
+        section,
         "liquidus_c",
         m.liquidus_c,
         m.solidus_c + 1.0,
@@ -498,7 +528,7 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
         "above solidus_c",
     )?;
     c.range(
-        "material",
+        section,
         "latent_j_kg",
         m.latent_j_kg,
         0.0,
@@ -510,7 +540,7 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
         "J/(g K)" => 1e3,
         other => {
             return Err(c.fail(
-                "material",
+                section,
                 "specific_heat_unit",
                 format!("\"{other}\""),
                 "\"J/(kg K)\" or \"J/(g K)\"",
@@ -522,7 +552,7 @@ fn tables(m: &RawTables, c: &Checker, base: &Path) -> Result<MaterialSpec> {
         "W/(mm K)" => 1e3,
         other => {
             return Err(c.fail(
-                "material",
+                section,
                 "conductivity_unit",
                 format!("\"{other}\""),
                 "\"W/(m K)\" or \"W/(mm K)\"",
@@ -767,6 +797,32 @@ mod tests {
         );
         assert!((s.laying.width_m - 2e-3).abs() < 1e-15);
         assert!(s.probes.is_none());
+    }
+
+    /// `[plate_material]` takes the forms `[material]` does, on the voxel model only; its
+    /// errors name its own section.
+    #[test]
+    fn a_plate_of_its_own_material() {
+        let s = ReplayScenario::parse(GOOD, "r.toml", Path::new(".")).unwrap();
+        assert!(s.plate_material.is_none());
+        let steel = format!("{GOOD}[plate_material]\npreset = \"G3Si\"\n");
+        let s = ReplayScenario::parse(&steel, "r.toml", Path::new(".")).unwrap();
+        assert_eq!(s.plate_material, Some(super::MaterialSpec::G3Si));
+        let e = ReplayScenario::parse(
+            &steel.replace("model = \"voxel\"", "model = \"fe\""),
+            "r.toml",
+            Path::new("."),
+        )
+        .unwrap_err();
+        assert!(
+            e.message.contains("thermal.model = \"voxel\""),
+            "{}",
+            e.message
+        );
+        let bad = format!("{GOOD}[plate_material]\npreset = \"A36\"\n");
+        let e = ReplayScenario::parse(&bad, "r.toml", Path::new(".")).unwrap_err();
+        assert!(e.message.contains("plate_material.preset"), "{}", e.message);
+        assert!(e.message.contains("\"A36\""), "{}", e.message);
     }
 
     #[test]
