@@ -13,7 +13,7 @@ use crate::geometry::sparse::FactorError;
 use crate::mesh::{Part, PartKind};
 use crate::orientation::{Violation, orient, violations};
 use crate::skeleton::{MultiBranch, check_single_branch};
-use crate::spiral::{Spiral, SpiralError, spiral};
+use crate::spiral::{Seam, Spiral, SpiralError, place_seam, spiral_of};
 use nalgebra::{Point3, Vector3};
 use std::fmt;
 
@@ -54,6 +54,8 @@ pub struct Plan {
     pub n_filled: usize,
     pub closing_point: Option<Point3<f64>>,
     pub spiral: Spiral,
+    /// Where the spiral starts and why (the generators are listed from it on).
+    pub seam: Seam,
     pub points: Vec<PathPoint>,
     pub violations: Vec<Violation>,
     pub deviation: Deviation,
@@ -178,10 +180,20 @@ pub fn plan(part: &Part, p: &PlanParams) -> Result<Plan, PlanError> {
         },
     );
 
-    // §2.3: the spiral.
-    let lengths: Vec<f64> = generators.iter().map(|g| g.length()).collect();
-    let sp = spiral(&lengths, p.deposit_mm, p.deposit_min_mm, p.deposit_max_mm)
+    // §2.3: the spiral, from a seam and with a count of revolutions that keep Eq.6.
+    let mut lengths: Vec<f64> = generators.iter().map(|g| g.length()).collect();
+    let seam = place_seam(&lengths, p.deposit_mm, p.deposit_min_mm, p.deposit_max_mm)
         .map_err(PlanError::Spiral)?;
+    generators.rotate_left(seam.first);
+    lengths.rotate_left(seam.first);
+    let sp = spiral_of(
+        &lengths,
+        p.deposit_mm,
+        p.deposit_min_mm,
+        p.deposit_max_mm,
+        Some(seam.n_layers),
+    )
+    .map_err(PlanError::Spiral)?;
 
     // A closed part's last revolution is the closing point itself: one point, not N.
     let mut sp = sp;
@@ -256,6 +268,7 @@ pub fn plan(part: &Part, p: &PlanParams) -> Result<Plan, PlanError> {
         n_filled,
         closing_point: closing,
         spiral: sp,
+        seam,
         points,
         violations,
         deviation,

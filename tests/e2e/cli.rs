@@ -184,6 +184,12 @@ fn plan_writes_the_contract_files() {
     }
     assert_eq!(plan["part_kind"], "open");
     assert_eq!(plan["n_step_layers"], 6);
+    // Table 2's part: Eq.5 from the lower loop's first generator holds the window.
+    let seam = &plan["seam"];
+    assert_eq!(seam["reason"], "eq5_holds", "{seam}");
+    assert_eq!(seam["n_layers"], plan["n_layers"]);
+    assert!(seam["step_margin_mm"].as_f64().unwrap() >= 0.0 && seam["miss_mm"].is_null());
+    assert_eq!(seam["position_mm"].as_array().unwrap().len(), 3);
     let (header, rows) = read_csv(&dir.join("path.csv"));
     assert_eq!(
         header.join(","),

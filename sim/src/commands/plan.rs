@@ -143,6 +143,7 @@ pub fn plan_json(s: &Scenario, pl: &Plan) -> Value {
         "step_along_generator_mm": minmax(slo, shi),
         "deposit_share_outside": outside as f64 / pl.points.len().max(1) as f64,
         "closing_point_mm": pl.closing_point.map(|c| json!([c.x, c.y, c.z])),
+        "seam": seam_json(pl),
         "feasible": pl.feasible(),
         "feasible_along_generators": slo >= p.deposit_min_mm - 1e-9 && shi <= p.deposit_max_mm + 1e-9,
         "violations_total": pl.violations.len(),
@@ -150,6 +151,24 @@ pub fn plan_json(s: &Scenario, pl: &Plan) -> Value {
         "violations": violations,
         "deviation_mm": {"min": pl.deviation.min_mm, "max": pl.deviation.max_mm, "rms": pl.deviation.rms_mm},
         "collisions": {"detected": pl.collisions.len(), "resolved": 0, "unresolved": pl.collisions.len()},
+    })
+}
+
+/// Where the spiral starts, on which generator as the lower loop listed them before the seam
+/// was placed, and why (`planner::spiral::Seam`).
+fn seam_json(pl: &Plan) -> Value {
+    let g = &pl.generators[0];
+    let start = g.start();
+    json!({
+        "generator": 0,
+        "lower_loop_generator": pl.seam.first,
+        "position_mm": [start.x, start.y, start.z],
+        "generator_length_mm": g.length(),
+        "reason": pl.seam.reason.key(),
+        "n_layers": pl.seam.n_layers,
+        "eq5_n_layers": pl.seam.eq5_layers,
+        "step_margin_mm": pl.seam.margin_mm,
+        "miss_mm": (pl.seam.margin_mm < 0.0).then(|| -pl.seam.margin_mm),
     })
 }
 
