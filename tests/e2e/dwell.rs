@@ -45,6 +45,12 @@ fn planned_dwells_keep_a_closed_dome_under_the_limit() {
     assert_eq!(drows.len(), count);
     let sum = |v: Vec<f64>| v.iter().sum::<f64>();
     assert!((sum(column(&dh, &drows, "dwell_s")) - total).abs() < 0.01 * count as f64);
+    // No dwell shorter than `[dwell] min_dwell_s` (5 s): each is an arc stop and a restart.
+    assert_eq!(d["arc_stops"], count);
+    let shortest = column(&dh, &drows, "dwell_s")
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
+    assert!(shortest >= 5.0 - 1e-3, "a dwell of {shortest} s");
     let (ph, prows) = csv(&out.join("path.csv"));
     assert!((sum(column(&ph, &prows, "dwell_s")) - total).abs() < 1e-3 * count as f64 + 1e-6);
     let (lh, lrows) = csv(&out.join("layers.csv"));

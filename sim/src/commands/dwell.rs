@@ -57,6 +57,10 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
         },
         "total_dwell_s": total,
         "dwell_count": count,
+        // Every arc start after the first: one a dwell (no drops are laid yet).
+        "arc_stops": count,
+        "shortest_dwell_s": plan.dwell_s.iter().copied().filter(|&d| d > 0.0).reduce(f64::min),
+        "min_dwell_s": d.min_dwell_s,
         "cost_s": total + d.count_weight_s * count as f64,
         "build_time_s": {"before": before.build_time_s(), "after": after.build_time_s()},
         "first_risk_before": first_risk_json(&b, &before),

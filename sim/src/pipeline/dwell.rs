@@ -403,7 +403,9 @@ impl Segment<'_> {
 /// The shortest dwell that `attempt` (the run after a dwell, whether it is safe, its hottest
 /// preheat) finds safe, starting from `guess`: cooling of the excess above ambient is close to
 /// exponential, so two tries give its time constant and the dwell that reaches the target; then
-/// the bracket closes to 10 %. `None` if even the longest dwell fails.
+/// the bracket closes to 10 %. None shorter than `min_dwell_s` is tried (a dwell is an arc stop
+/// and a restart: one that cools for a fraction of a second buys nothing). `None` if even the
+/// longest dwell fails.
 fn shortest_dwell<R>(
     s: &Search,
     guess: f64,
@@ -414,12 +416,14 @@ fn shortest_dwell<R>(
     let mut tries = vec![(0.0, hot0)];
     let mut d = guess;
     let (mut fail, mut best): (f64, Option<(f64, R)>) = (0.0, None);
+    let shortest = s.dwell.min_dwell_s.min(s.dwell.max_dwell_s);
     for _ in 0..MAX_TRIES {
-        d = d.clamp(0.0, s.dwell.max_dwell_s);
+        d = d.clamp(shortest, s.dwell.max_dwell_s);
         let (x, safe, hot) = attempt(d)?;
         tries.push((d, hot));
         if safe {
-            let close = d - fail <= (0.1 * d).max(0.5);
+            // Within 10 % of the bracket, or at the shortest dwell allowed.
+            let close = d - fail <= (0.1 * d).max(0.5) || d <= shortest;
             best = Some((d, x));
             if close {
                 break;

@@ -105,6 +105,8 @@ pub struct DwellSettings {
     pub humping: bool,
     pub bond: bool,
     pub max_dwell_s: f64,
+    /// Shortest dwell planned: an arc stop that cools for less buys nothing.
+    pub min_dwell_s: f64,
     pub margin_k: f64,
     pub count_weight_s: f64,
     /// Radius of the closing zone around a closing point, mm.

@@ -496,6 +496,14 @@ fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings>
     c.positive("dwell", "max_dwell_s", d.max_dwell_s, 86_400.0)?;
     c.range(
         "dwell",
+        "min_dwell_s",
+        d.min_dwell_s,
+        0.0,
+        d.max_dwell_s,
+        "between 0 and dwell.max_dwell_s",
+    )?;
+    c.range(
+        "dwell",
         "margin_c",
         d.margin_c,
         0.0,
@@ -521,6 +529,7 @@ fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings>
         humping: on("humping"),
         bond: on("bond"),
         max_dwell_s: d.max_dwell_s,
+        min_dwell_s: d.min_dwell_s,
         margin_k: d.margin_c,
         count_weight_s: d.count_weight_s,
         closing_zone_mm: d.closing_zone_mm.unwrap_or(3.0 * bead_width_mm),

@@ -225,6 +225,8 @@ pub struct RawDwell {
     pub policy: String,
     /// Longest single dwell.
     pub max_dwell_s: f64,
+    /// Shortest dwell: a stop and restart of the arc that cools for less buys nothing.
+    pub min_dwell_s: f64,
     /// Aim this far below a temperature limit.
     pub margin_c: f64,
     /// The cost of one arc stop in seconds of dwell, when reporting the trade-off.
@@ -248,6 +250,7 @@ impl Default for RawDwell {
             ],
             policy: "revolution".into(),
             max_dwell_s: 600.0,
+            min_dwell_s: 5.0,
             margin_c: 2.0,
             count_weight_s: 0.0,
             closing_zone_mm: None,
