@@ -75,6 +75,10 @@ pub enum Command {
         /// Skip the baselines (uniform dwell, wait until cool), which take several builds.
         #[arg(long)]
         no_baselines: bool,
+        /// Plan at six weights of an arc stop and write the front of arc stops against build
+        /// time (pareto.csv, pareto.png): six dwell searches.
+        #[arg(long)]
+        pareto: bool,
     },
     /// What-if study: overrides of a base scenario, run two at a time, resumable; summary.csv.
     Study {

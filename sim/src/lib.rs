@@ -74,8 +74,13 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             scenario,
             out,
             no_baselines,
+            pareto,
         } => {
-            println!("{}", commands::dwell::run(&scenario, &out, !no_baselines)?);
+            let extras = commands::dwell::Extras {
+                baselines: !no_baselines,
+                pareto,
+            };
+            println!("{}", commands::dwell::run(&scenario, &out, extras)?);
             Ok(())
         }
         Command::Study {

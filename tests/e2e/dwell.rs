@@ -113,3 +113,64 @@ fn dwells_planned_on_the_voxel_model_keep_a_small_dome_safe_outside_its_closing_
     assert!(left.iter().all(|p| p["closing_zone"] == true), "{left:?}");
     assert!(d["unresolved_points"].as_u64().unwrap() >= left.len() as u64);
 }
+
+/// `[dwell] max_arc_stops` and `--pareto` on a small dome: the plans at six weights of an arc
+/// stop are real plans (pareto.csv, pareto.png, dwell.json `pareto`), the front is the plans
+/// nothing beats on both counts, and the plan kept is the lightest weight within the budget, or,
+/// where no weight meets it, the one with the fewest stops, said to miss it.
+#[test]
+fn an_arc_stop_budget_and_its_front() {
+    let dir = scratch("dwell_budget");
+    std::fs::write(
+        dir.join("s.toml"),
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 25.0\nedge_mm = 2.5\n[planner]\nn_points = 48\n\
+         [thermal]\nplate_mm = [90.0, 90.0, 10.0]\n[dwell]\nmax_arc_stops = 10\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = waamtwin(&[
+        "dwell",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--no-baselines",
+        "--pareto",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("dwell.json")).unwrap()).unwrap();
+    let budget = &d["arc_stop_budget"];
+    eprintln!("budget: {budget}\nfront: {}", d["pareto"]);
+    let stops = d["arc_stops"].as_u64().unwrap();
+    assert_eq!(budget["met"], stops <= 10, "{budget}");
+    assert_eq!(d["risky_points_after"], 0);
+    let (h, rows) = csv(&out.join("pareto.csv"));
+    assert_eq!(
+        h.join(","),
+        "weight_s,arc_stops,total_dwell_s,build_time_s,on_front"
+    );
+    assert_eq!(rows.len(), 6);
+    let plans: Vec<(f64, f64, bool)> = rows
+        .iter()
+        .map(|r| (r[1].parse().unwrap(), r[3].parse().unwrap(), r[4] == "1"))
+        .collect();
+    for &(s, t, on) in &plans {
+        let beaten = plans
+            .iter()
+            .any(|&(s2, t2, _)| (s2 <= s && t2 < t - 1e-6) || (s2 < s && t2 <= t + 1e-6));
+        assert_eq!(on, !beaten, "{plans:?}");
+    }
+    // The plan kept is one of the front's, with its stops and dwell.
+    let kept_weight = budget["weight_s_per_stop"].as_f64().unwrap();
+    let kept = rows
+        .iter()
+        .find(|r| r[0].parse::<f64>().unwrap() == kept_weight)
+        .expect("the kept plan is on the list");
+    assert_eq!(kept[1].parse::<u64>().unwrap(), stops);
+    let total = d["total_dwell_s"].as_f64().unwrap();
+    assert!((kept[2].parse::<f64>().unwrap() - total).abs() < 1e-3 * total.max(1.0));
+    // Weighing a stop heavier never buys more stops for less build time than the lightest.
+    let fewest = plans.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    assert!(fewest <= plans[0].0, "{plans:?}");
+    assert!(out.join("pareto.png").is_file());
+}

@@ -28,7 +28,7 @@ pub fn demo(out: &Path) -> Result<()> {
     // Plan, simulate without dwells, plan the dwells, and simulate the dwelled path.
     println!(
         "{}",
-        super::dwell::plan_and_dwell(&scenario, &mut dir, false)?
+        super::dwell::plan_and_dwell(&scenario, &mut dir, super::dwell::Extras::default())?
     );
     dir.finish("demo", scenario.to_json())?;
     Ok(())

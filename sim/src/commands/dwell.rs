@@ -5,6 +5,7 @@ use super::simulate::{heat, record, write_thermal};
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
+use crate::pipeline::arc_stops;
 use crate::pipeline::dwell::{dwell_points, first_risk, uniform_baseline, wait_until_cool};
 use crate::pipeline::{Build, Simulation};
 use crate::progress::Stage;
@@ -15,24 +16,37 @@ use std::path::Path;
 use std::time::Instant;
 use thermal::celsius;
 
-pub fn run(scenario: &Path, out: &Path, baselines: bool) -> Result<String> {
+/// What the dwell command does beyond the plan: the baselines, and the arc-stop front.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Extras {
+    pub baselines: bool,
+    pub pareto: bool,
+}
+
+pub fn run(scenario: &Path, out: &Path, extras: Extras) -> Result<String> {
     let s = Scenario::load(scenario)?;
     let mut dir = RunDir::create(out)?;
-    let line = plan_and_dwell(&s, &mut dir, baselines)?;
+    let line = plan_and_dwell(&s, &mut dir, extras)?;
     dir.finish("dwell", s.to_json())?;
     Ok(line)
 }
 
 /// Plan, simulate, plan the dwells and simulate the dwelled path, writing every file of the
 /// dwell command into `dir` (all but the manifest).
-pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result<String> {
+pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<String> {
     let part = load_part(&s.part)?;
     let b = super::plan::build(s, &part)?;
     let before = heat(&b, &[], 0)?;
     let clock = Instant::now();
-    let plan = {
+    let (plan, budget) = {
         let _stage = Stage::start("planning the dwells");
-        b.plan_dwells()?
+        match b.params.dwell.max_arc_stops {
+            Some(max) => {
+                let r = arc_stops::within_budget(&b, max)?;
+                (r.plan.clone(), Some((max, r)))
+            }
+            None => (b.plan_dwells()?, None),
+        }
     };
     let search_s = clock.elapsed().as_secs_f64();
     let after = heat(&b, &plan.dwell_s, s.output.frames)?;
@@ -75,7 +89,36 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
         "single_build_wall_s": before.wall_clock_s,
         "search_cost_in_builds": search_s / before.wall_clock_s.max(1e-9),
     });
-    if baselines {
+    if let Some((max, r)) = &budget {
+        summary["arc_stop_budget"] = json!({
+            "max_arc_stops": max,
+            "met": r.met,
+            "weight_s_per_stop": r.weight_s,
+            "tried": r.tried.iter().map(tried_json).collect::<Vec<_>>(),
+        });
+    }
+    if extras.pareto {
+        let _stage = Stage::start("the arc-stop front: a dwell plan per weight of an arc stop");
+        let known = budget.as_ref().map_or(&[][..], |(_, r)| r.tried.as_slice());
+        let plans = arc_stops::front(&b, known)?;
+        let mut csv = String::from("weight_s,arc_stops,total_dwell_s,build_time_s,on_front\n");
+        for t in &plans {
+            let _ = writeln!(
+                csv,
+                "{},{},{:.3},{:.3},{}",
+                t.weight_s,
+                t.arc_stops,
+                t.total_dwell_s,
+                t.build_time_s,
+                u8::from(arc_stops::on_front(t, &plans))
+            );
+        }
+        dir.write("pareto.csv", csv.as_bytes())?;
+        summary["pareto"] = plans.iter().map(tried_json).collect::<Vec<_>>().into();
+        #[cfg(feature = "recording")]
+        crate::record::pareto_plot(dir, "dwell plans", &plans, budget.as_ref().map(|b| b.0))?;
+    }
+    if extras.baselines {
         let _stage = Stage::start("baselines: uniform dwell, wait until cool");
         let deps = b.deposits();
         let model = b.heat_model(deps, Vec::new());
@@ -149,6 +192,11 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, baselines: bool) -> Result
             "thin-wall"
         }
     ))
+}
+
+fn tried_json(t: &arc_stops::Tried) -> Value {
+    json!({"weight_s_per_stop": t.weight_s, "arc_stops": t.arc_stops,
+        "total_dwell_s": t.total_dwell_s, "build_time_s": t.build_time_s})
 }
 
 fn first_risk_json(b: &Build, sim: &Simulation) -> Value {

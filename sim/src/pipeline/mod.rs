@@ -33,6 +33,7 @@
 //! println!("{:.0} s of dwell", dwells.dwell_s.iter().sum::<f64>());
 //! ```
 
+pub mod arc_stops;
 pub mod beads;
 pub mod calibrate;
 pub mod deposition;
@@ -45,6 +46,7 @@ pub use params::Params;
 
 use beads::Beads;
 use dwell::{DwellPlan, Search};
+use params::DwellSettings;
 use planner::mesh::Part;
 use planner::plan::{Plan, PlanParams};
 use risk::{Criteria, Risk, judge};
@@ -189,15 +191,22 @@ impl Build {
 
     /// The cooling dwells that keep every point safe, searched on the scenario's heat model.
     pub fn plan_dwells(&self) -> Result<DwellPlan, ThermalError> {
+        self.plan_dwells_weighted(self.params.dwell.count_weight_s)
+    }
+
+    /// [`Build::plan_dwells`] with an arc stop weighed as `weight_s` seconds of dwell.
+    pub fn plan_dwells_weighted(&self, weight_s: f64) -> Result<DwellPlan, ThermalError> {
         let model = self.heat_model(&self.deposits, Vec::new());
         let run = model.start(&self.deposits)?;
-        dwell::plan_dwells(
-            &self.search(),
-            &self.plan,
-            &self.deposits,
-            model.lead(),
-            run,
-        )
+        let dwell = DwellSettings {
+            count_weight_s: weight_s,
+            ..self.params.dwell.clone()
+        };
+        let search = Search {
+            dwell: &dwell,
+            ..self.search()
+        };
+        dwell::plan_dwells(&search, &self.plan, &self.deposits, model.lead(), run)
     }
 
     /// Per path point, whether it lies in the closing zone (`[dwell] closing_zone_mm`).

@@ -107,6 +107,8 @@ pub struct DwellSettings {
     pub max_dwell_s: f64,
     /// Shortest dwell planned: an arc stop that cools for less buys nothing.
     pub min_dwell_s: f64,
+    /// Most arc stops a plan may make (`pipeline::arc_stops`); None: no limit.
+    pub max_arc_stops: Option<usize>,
     pub margin_k: f64,
     pub count_weight_s: f64,
     /// Radius of the closing zone around a closing point, mm.

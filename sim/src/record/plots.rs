@@ -474,6 +474,68 @@ pub fn study_plots(dir: &mut RunDir, cases: &[Case]) -> Result<()> {
     })
 }
 
+/// The arc-stop front: build time against arc stops, one point a real plan (its weight per arc
+/// stop beside it), the plans nothing beats joined, the budget as a line where there is one.
+pub fn pareto_plot(
+    dir: &mut RunDir,
+    title: &str,
+    plans: &[crate::pipeline::arc_stops::Tried],
+    budget: Option<usize>,
+) -> Result<()> {
+    use crate::pipeline::arc_stops::on_front;
+    draw(dir, "pareto.png", |area| {
+        let stops = plans.iter().map(|t| t.arc_stops as f64);
+        let (x_lo, x_hi) = span(stops.chain([0.0]).chain(budget.map(|b| b as f64)));
+        let (y_lo, y_hi) = span(plans.iter().map(|t| t.build_time_s / 60.0));
+        let mut chart = ChartBuilder::on(area)
+            .caption(format!("{title}: build time against arc stops"), (FONT, 24))
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)?;
+        chart
+            .configure_mesh()
+            .x_desc("arc stops (arc starts after the first)")
+            .y_desc("build time, min")
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .label_style((FONT, 15))
+            .draw()?;
+        let mut front: Vec<(f64, f64)> = plans
+            .iter()
+            .filter(|t| on_front(t, plans))
+            .map(|t| (t.arc_stops as f64, t.build_time_s / 60.0))
+            .collect();
+        front.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let blue = RGBColor(50, 100, 220);
+        chart
+            .draw_series(LineSeries::new(front, blue.stroke_width(2)))?
+            .label("Pareto front (no plan beats these on both)")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], blue));
+        chart.draw_series(plans.iter().map(|t| {
+            let c = if on_front(t, plans) {
+                blue
+            } else {
+                RGBColor(150, 150, 150)
+            };
+            EmptyElement::at((t.arc_stops as f64, t.build_time_s / 60.0))
+                + Circle::new((0, 0), 5, c.filled())
+                + Text::new(format!("{:.0} s/stop", t.weight_s), (7, -14), (FONT, 12))
+        }))?;
+        if let Some(b) = budget {
+            let red = RGBColor(210, 60, 60);
+            chart
+                .draw_series(LineSeries::new(
+                    [(b as f64, y_lo), (b as f64, y_hi)],
+                    red.stroke_width(1),
+                ))?
+                .label(format!("budget: {b} arc stops"))
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red));
+        }
+        // Fewer stops cost more build time: the lower left stays empty.
+        legend(&mut chart, SeriesLabelPosition::LowerLeft)
+    })
+}
+
 /// Highest temperature on the colour scale, °C: the colour map is white from 1500 °C.
 const SCALE_TOP_C: f64 = 1600.0;
 

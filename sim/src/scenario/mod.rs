@@ -530,6 +530,7 @@ fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings>
         bond: on("bond"),
         max_dwell_s: d.max_dwell_s,
         min_dwell_s: d.min_dwell_s,
+        max_arc_stops: d.max_arc_stops,
         margin_k: d.margin_c,
         count_weight_s: d.count_weight_s,
         closing_zone_mm: d.closing_zone_mm.unwrap_or(3.0 * bead_width_mm),

@@ -227,6 +227,9 @@ pub struct RawDwell {
     pub max_dwell_s: f64,
     /// Shortest dwell: a stop and restart of the arc that cools for less buys nothing.
     pub min_dwell_s: f64,
+    /// Most arc stops a plan may make (every arc start after the first); absent: no limit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_arc_stops: Option<usize>,
     /// Aim this far below a temperature limit.
     pub margin_c: f64,
     /// The cost of one arc stop in seconds of dwell, when reporting the trade-off.
@@ -251,6 +254,7 @@ impl Default for RawDwell {
             policy: "revolution".into(),
             max_dwell_s: 600.0,
             min_dwell_s: 5.0,
+            max_arc_stops: None,
             margin_c: 2.0,
             count_weight_s: 0.0,
             closing_zone_mm: None,
