@@ -53,6 +53,40 @@ fn erf(x: f64) -> f64 {
     }
 }
 
+/// The voxel model on a `plate_size` (m) plate centred at the origin, of its own material
+/// `plate_material` or the deposit's, `dx` voxels, no losses, metal arriving at `deposit_k`.
+fn adiabatic_voxels(
+    material: Material,
+    plate_size: [f64; 3],
+    plate_material: Option<Material>,
+    dx: f64,
+    deposit_k: f64,
+) -> VoxelSettings {
+    VoxelSettings {
+        material,
+        surroundings: adiabatic(),
+        plate: Plate {
+            size: plate_size,
+            centre: [0.0, 0.0],
+            cell: dx,
+            layers: 1,
+            disc: false,
+            material: plate_material,
+        },
+        size: dx,
+        deposit_temperature: deposit_k,
+        lead: 0.0,
+        hot_threshold: 873.15,
+        snapshot_times: vec![],
+        traces: vec![],
+        trace_hottest: false,
+        courant: 0.9,
+        probes: vec![],
+        probe_every: 0.0,
+        source: thermal::voxel::HeatSource::DoubleEllipsoid,
+    }
+}
+
 /// Modified Bessel K₀ (Abramowitz & Stegun 9.8.1, 9.8.5, 9.8.6; |ε| < 2e-7 relative).
 fn bessel_k0(x: f64) -> f64 {
     if x <= 2.0 {
@@ -182,29 +216,7 @@ fn grid_convergence_is_second_order() {
 /// error at the cell centres down the column, as a fraction of the surface rise.
 fn voxel_column(dx: f64, t_end: f64) -> f64 {
     let (q, depth) = (1e6, 0.06);
-    let settings = VoxelSettings {
-        material: steel(),
-        surroundings: adiabatic(),
-        plate: Plate {
-            size: [0.01, 0.01, depth],
-            centre: [0.0, 0.0],
-            cell: dx,
-            layers: 1,
-            disc: false,
-            material: None,
-        },
-        size: dx,
-        deposit_temperature: 300.0,
-        lead: 0.0,
-        hot_threshold: 873.15,
-        snapshot_times: vec![],
-        traces: vec![],
-        trace_hottest: false,
-        courant: 0.9,
-        probes: vec![],
-        probe_every: 0.0,
-        source: thermal::voxel::HeatSource::DoubleEllipsoid,
-    };
+    let settings = adiabatic_voxels(steel(), [0.01, 0.01, depth], None, dx, 300.0);
     let mut m = VoxelModel::new(&[], &settings).unwrap();
     let cells = (0.01 / dx).round() as usize;
     let centre = |i: usize| -0.005 + (i as f64 + 0.5) * dx;
@@ -355,29 +367,7 @@ fn pad_on_plate(
             }
         })
         .collect();
-    let settings = VoxelSettings {
-        material: pad,
-        surroundings: adiabatic(),
-        plate: Plate {
-            size: [0.01, 0.01, 0.02],
-            centre: [0.0, 0.0],
-            cell: dx,
-            layers: 1,
-            disc: false,
-            material: plate,
-        },
-        size: dx,
-        deposit_temperature: hot,
-        lead: 0.0,
-        hot_threshold: 873.15,
-        snapshot_times: vec![],
-        traces: vec![],
-        trace_hottest: false,
-        courant: 0.9,
-        probes: vec![],
-        probe_every: 0.0,
-        source: thermal::voxel::HeatSource::DoubleEllipsoid,
-    };
+    let settings = adiabatic_voxels(pad, [0.01, 0.01, 0.02], plate, dx, hot);
     let mut m = VoxelModel::new(&deps, &settings).unwrap();
     m.lay_all(&deps);
     assert_eq!(

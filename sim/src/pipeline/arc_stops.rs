@@ -125,9 +125,11 @@ mod tests {
             t(60, 1100.0),
             t(60, 1200.0),
             t(30, 1150.0),
+            t(40, 1150.0),
             t(20, 2000.0),
         ];
         let on: Vec<bool> = all.iter().map(|x| on_front(x, &all)).collect();
-        assert_eq!(on, [true, false, false, true, true]);
+        // (60, 1200) is beaten by (60, 1100); (40, 1150) by (30, 1150).
+        assert_eq!(on, [true, true, false, true, false, true]);
     }
 }
