@@ -5,9 +5,9 @@ use super::simulate::{heat, record, write_thermal};
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
-use crate::pipeline::arc_stops;
 use crate::pipeline::dwell::{dwell_points, first_risk, uniform_baseline, wait_until_cool};
 use crate::pipeline::{Build, Simulation};
+use crate::pipeline::{arc_stops, risk};
 use crate::progress::Stage;
 use crate::scenario::Scenario;
 use serde_json::{Value, json};
@@ -56,6 +56,12 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
     let risky_after: Vec<usize> = (0..pl.points.len())
         .filter(|&i| risks_after[i].is_some())
         .collect();
+    // Where the risk is one a dwell could act on (the planner's judgement): the others lie on
+    // metal laid while their preheat was read, near a closing point, and need a closing strategy.
+    let r = &after.result;
+    let dwell_can_help =
+        |i: usize| risk::judge_for_dwell(&b.criteria, &r.points[i], r.support[i], 0.0).is_some();
+    let beyond_dwells = risky_after.iter().filter(|&&i| !dwell_can_help(i)).count();
 
     let total = plan.dwell_s.iter().sum::<f64>();
     let count = plan.dwell_s.iter().filter(|&&d| d > 0.0).count();
@@ -80,8 +86,13 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
         "first_risk_before": first_risk_json(&b, &before),
         "risky_points_after": risky_after.len(),
         "risky_points_after_outside_closing_zone": risky_after.iter().filter(|&&i| !zone[i]).count(),
+        "risky_points_after_no_dwell_can_help": beyond_dwells,
+        // No closing strategy (heat input ramped down, drops) is built: points no dwell can
+        // help stay at risk, and are said to.
+        "closing_strategy": Value::Null,
         "risky_after": risky_after.iter().take(50).map(|&i| json!({"i": i, "layer": pl.points[i].layer,
             "closing_zone": zone[i], "reason": risks_after[i].map(|r| r.as_str()),
+            "dwell_can_help": dwell_can_help(i), "laid_on": support_name(r.support[i]),
             "preheat_c": celsius(after.result.points[i].preheat), "pool_length_mm": after.result.points[i].pool_length * 1e3})).collect::<Vec<_>>(),
         "unresolved_points": plan.unresolved.len(),
         "search_deposits_in_builds": plan.cost_builds,
@@ -192,6 +203,14 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
             "thin-wall"
         }
     ))
+}
+
+fn support_name(s: thermal::Support) -> &'static str {
+    match s {
+        thermal::Support::Plate => "plate",
+        thermal::Support::Deposit => "earlier_revolution",
+        thermal::Support::JustLaid => "metal_just_laid",
+    }
 }
 
 fn tried_json(t: &arc_stops::Tried) -> Value {

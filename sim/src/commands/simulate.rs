@@ -146,12 +146,16 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
     let mut csv = String::from(
         "layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk,closing_zone\n",
     );
+    // A revolution's risk: the first its points break, judged as thermal.json and dwell.json
+    // judge them.
+    let mut layer_risk: Vec<Option<&str>> = vec![None; zone_layers.len()];
+    for (q, r) in pl.points.iter().zip(&risks) {
+        if layer_risk[q.layer].is_none() {
+            layer_risk[q.layer] = r.map(|r| r.as_str());
+        }
+    }
     for l in b.layers(sim) {
-        let risk = if l.preheat_max_k > params.dwell.interpass_max_k {
-            "interpass"
-        } else {
-            ""
-        };
+        let risk = layer_risk[l.layer].unwrap_or("");
         let _ = writeln!(
             csv,
             "{},{:.3},{:.3},{:.2},{:.2},{:.3},{risk},{}",

@@ -14,7 +14,7 @@
 //!   only these can.
 
 use super::params::DwellSettings;
-use super::risk::{Criteria, Risk, judge};
+use super::risk::{Criteria, Risk, judge_for_dwell};
 use planner::plan::Plan;
 use thermal::schedule::Deposit;
 use thermal::schedule::read_points;
@@ -31,7 +31,7 @@ pub struct Search<'a> {
 
 impl Search<'_> {
     fn judge(&self, p: &thermal::PointResult, support: Support, margin_k: f64) -> Option<Risk> {
-        judge(self.criteria, p, support, margin_k)
+        judge_for_dwell(self.criteria, p, support, margin_k)
     }
 
     /// The temperature the search aims below, K.

@@ -29,7 +29,10 @@
 //! let dwells = build.plan_dwells().unwrap();
 //! let after = build.simulate(&dwells.dwell_s, 0).unwrap();
 //! assert!(before.first_risk(&build.criteria).is_some());
-//! assert!(after.first_risk(&build.criteria).is_none());
+//! // Every point is safe but those laid on metal just laid at the closing point, which no dwell
+//! // can help (a closing strategy's work).
+//! let (risks, can) = (after.risks(&build.criteria), after.dwell_can_act());
+//! assert!(risks.iter().zip(&can).all(|(r, &can)| r.is_none() || !can));
 //! println!("{:.0} s of dwell", dwells.dwell_s.iter().sum::<f64>());
 //! ```
 
@@ -275,18 +278,28 @@ impl Simulation {
         self.deposits.last().map_or(0.0, |d| d.time)
     }
 
-    /// Per point, the first criterion it breaks.
+    /// Per point, the first criterion it breaks (every point judged, none exempt).
     pub fn risks(&self, c: &Criteria) -> Vec<Option<Risk>> {
         let r = &self.result;
         (0..r.points.len())
-            .map(|i| judge(c, &r.points[i], r.support[i], 0.0))
+            .map(|i| judge(c, &r.points[i], 0.0))
             .collect()
     }
 
     /// The first point at risk, and why.
     pub fn first_risk(&self, c: &Criteria) -> Option<(usize, Risk)> {
         let r = &self.result;
-        (0..r.points.len()).find_map(|i| judge(c, &r.points[i], r.support[i], 0.0).map(|k| (i, k)))
+        (0..r.points.len()).find_map(|i| judge(c, &r.points[i], 0.0).map(|k| (i, k)))
+    }
+
+    /// Per point, whether a dwell can act on its layer-on-layer limits
+    /// ([`risk::dwell_can_act`]).
+    pub fn dwell_can_act(&self) -> Vec<bool> {
+        self.result
+            .support
+            .iter()
+            .map(|&s| risk::dwell_can_act(s))
+            .collect()
     }
 
     /// The hottest preheat of the build, K.

@@ -10,9 +10,11 @@
 //! - bond: the Bond number of the pool (R the radius of the half sphere of its volume) above the
 //!   bead model's threshold (Radel et al. 2019).
 //!
-//! The interpass and strength limits concern a layer on a layer: points laid on the plate are
-//! not judged by them, nor are points laid on the bead being laid at a closing point (where a
-//! revolution is no longer than a thin-wall node and no dwell can come between them).
+//! Every point is judged by every criterion in force ([`judge`]): near a closing point a
+//! revolution is no longer than the torch's reach, and a point laid on the bead being laid now
+//! reads the arc's own heat; it is at risk as much as any, and the outputs say so. The dwell
+//! planner acts only where a dwell can come between the metal and the point laid on it
+//! ([`dwell_can_act`]): not on the plate's first layer, not on metal just laid.
 
 use super::params::Params;
 use bead_model::bond::bond_number;
@@ -78,9 +80,31 @@ impl Risk {
     }
 }
 
-/// The first criterion point `p` breaks, if any. `margin_k` tightens the temperature limits.
-pub fn judge(c: &Criteria, p: &PointResult, support: Support, margin_k: f64) -> Option<Risk> {
-    if support == Support::Deposit {
+/// The first criterion point `p` breaks, if any, whatever it is laid on. `margin_k` tightens the
+/// temperature limits.
+pub fn judge(c: &Criteria, p: &PointResult, margin_k: f64) -> Option<Risk> {
+    judged(c, p, true, margin_k)
+}
+
+/// Whether a dwell before a point can change what the layer-on-layer limits (interpass,
+/// strength) judge of it: it lies on an earlier revolution, not on the plate's first layer nor on
+/// metal laid while its preheat was read.
+pub fn dwell_can_act(support: Support) -> bool {
+    support == Support::Deposit
+}
+
+/// [`judge`] as the dwell planner sees it: the layer-on-layer limits only where a dwell can act.
+pub fn judge_for_dwell(
+    c: &Criteria,
+    p: &PointResult,
+    support: Support,
+    margin_k: f64,
+) -> Option<Risk> {
+    judged(c, p, dwell_can_act(support), margin_k)
+}
+
+fn judged(c: &Criteria, p: &PointResult, on_a_layer: bool, margin_k: f64) -> Option<Risk> {
+    if on_a_layer {
         if c.interpass_max_k.is_some_and(|t| p.preheat > t - margin_k) {
             return Some(Risk::Interpass);
         }

@@ -141,10 +141,10 @@ fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
     if !above.is_empty() {
         let runs = super::scene::ranges(&above);
         evidence.push(format!(
-            "Revolutions whose hottest preheat passes the limit: {runs}. Where no point there is \
-             judged at risk, the metal beneath was laid inside the torch's footprint when its \
-             preheat was read (the arc's own heat, near a closing point), which the criteria do \
-             not judge; see docs/PHYSICS.md."
+            "Revolutions whose hottest preheat passes the limit: {runs}. Near a closing point the \
+             metal beneath a point can be laid inside the torch's footprint when its preheat is \
+             read (the arc's own heat): no dwell can help there, and no closing strategy is built \
+             yet (dwell.json counts such points; see docs/PHYSICS.md)."
         ));
     }
     (safe, headline, evidence)
