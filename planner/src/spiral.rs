@@ -127,9 +127,8 @@ impl std::error::Error for SpiralError {}
 /// After the start-up generator g has R_g left, and N revolutions step it R_g/N: Eq.6 holds on
 /// the steps iff max(R)/h_max ≤ N ≤ min(R)/h_min. Eq.5 takes the upper end, floor(min(R)/h_min),
 /// and never looks at the lower one. The start-up lays h more on the generator where the spiral
-/// ends a revolution than where it starts one, so where the seam lies moves every R_g: a seam
-/// just after the longest generator gives that generator the most start-up and evens the
-/// remaining lengths out.
+/// ends a revolution than where it starts one, so where the seam lies moves every R_g, and a
+/// seam the lower loop did not happen to start at can keep a window Eq.5 breaks.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Seam {
     /// The generator the spiral starts on, as the lengths were given.

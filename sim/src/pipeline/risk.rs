@@ -13,8 +13,9 @@
 //! Every point is judged by every criterion in force ([`judge`]): near a closing point a
 //! revolution is no longer than the torch's reach, and a point laid on the bead being laid now
 //! reads the arc's own heat; it is at risk as much as any, and the outputs say so. The dwell
-//! planner acts only where a dwell can come between the metal and the point laid on it
-//! ([`dwell_can_act`]): not on the plate's first layer, not on metal just laid.
+//! planner acts on the layer-on-layer limits only where a dwell can come between the metal and
+//! the point laid on it ([`dwell_can_act`]): on an earlier revolution, not on the plate's first
+//! layer (an overheated plate is reported, not dwelled for), not on metal just laid.
 
 use super::params::Params;
 use bead_model::bond::bond_number;
