@@ -7,6 +7,7 @@
 
 pub mod as_built;
 pub mod bond;
+pub mod drop;
 pub mod eq7;
 pub mod heat_input;
 pub mod section;

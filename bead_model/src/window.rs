@@ -53,6 +53,14 @@ impl Window {
         }
     }
 
+    /// How much slower a point laid at (`wfs`, `travel`) can be laid with both divided by the
+    /// same pace k ≥ 1 and still inside the window: Eq.7's height depends on WFS/TS alone, so the
+    /// deposit stays as planned while the arc runs k times longer on a slower wire feed (whose
+    /// power the synergic line gives). 1 when either is already at its lower limit (or below).
+    pub fn slowest_pace(&self, wfs: f64, travel: f64) -> f64 {
+        (wfs / self.wfs_min).min(travel / self.travel_min).max(1.0)
+    }
+
     /// Indices of the heights the window cannot lay.
     pub fn outside(&self, heights: &[f64], m: Modulation) -> Vec<usize> {
         let (lo, hi) = self.heights(m);
@@ -94,6 +102,19 @@ mod tests {
         // Constant 6 m/min: TS from 25 to 2 mm/s → LH from 0.6283 to 7.854 mm.
         let (lo, hi) = window().heights(Modulation::TravelSpeed { wfs: 0.1 });
         assert!((lo * 1e3 - 0.628_319).abs() < 1e-6 && (hi * 1e3 - 7.853_982).abs() < 1e-6);
+    }
+
+    /// 6 m/min at 10 mm/s: the travel limit (2 mm/s) allows 5 ×, the wire's (1.5 m/min) 4 ×;
+    /// at the slowest pace the height is Eq.7's at the planned settings.
+    #[test]
+    fn the_slowest_pace_keeps_the_deposit_inside_the_window() {
+        let (wfs, ts) = (0.1, 10e-3);
+        let k = window().slowest_pace(wfs, ts);
+        assert!((k - 4.0).abs() < 1e-12, "{k}");
+        let h = |w, t| crate::eq7::layer_height(1e-3, w, 5e-3, t);
+        assert!((h(wfs / k, ts / k) - h(wfs, ts)).abs() < 1e-15);
+        assert!((window().slowest_pace(0.5, 4e-3) - 2.0).abs() < 1e-12);
+        assert_eq!(window().slowest_pace(0.01, 10e-3), 1.0);
     }
 
     #[test]

@@ -14,7 +14,9 @@ fn simulate(
     let mut lines = layers.lines();
     assert_eq!(
         lines.next(),
-        Some("layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk,closing_zone")
+        Some(
+            "layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk,closing_zone,pace_max,drops"
+        )
     );
     (
         t,
@@ -66,7 +68,7 @@ fn energy_balance_over_a_whole_build() {
     let path = std::fs::read_to_string(dir.join("path.csv")).unwrap();
     let mut lines = path.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert!(header.join(",").ends_with(",t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s,built_height_mm,built_width_mm,stickout_mm"));
+    assert!(header.join(",").ends_with(",t_s,dwell_s,preheat_c,peak_c,pool_length_mm,time_above_s,built_height_mm,built_width_mm,stickout_mm,pace,drop"));
     let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
     for l in lines {
         let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();

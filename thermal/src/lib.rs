@@ -22,8 +22,8 @@ pub mod wall;
 
 pub use error::ThermalError;
 pub use run::{
-    Cells, CoolingSteps, HeatModel, HeatRun, ModelRun, Plate, PointResult, RunResult, Snapshot,
-    Support, Trace,
+    Burn, Cells, CoolingSteps, HeatModel, HeatRun, ModelRun, Plate, PointResult, RunResult,
+    Snapshot, Support, Trace,
 };
 
 /// 0 °C in kelvin: the one place the interface's °C and the models' K meet.

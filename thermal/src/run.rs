@@ -10,7 +10,7 @@
 
 use crate::error::ThermalError;
 use crate::network::Ledger;
-use crate::schedule::Deposit;
+use crate::schedule::{Deposit, DropPart, strike_readings};
 use crate::voxel::{VoxelModel, VoxelRun, VoxelSettings};
 use crate::wall::{WallModel, WallRun, WallSettings};
 
@@ -174,12 +174,107 @@ pub struct RunResult {
     pub cells: Cells,
 }
 
+/// How a deposit's arc burns when it is laid otherwise than its schedule says: the same metal,
+/// in the same place, over another arc time with another heat (a slowed-down revolution: wire
+/// feed and travel speed scaled together, the power the slower wire feed gives), or as a drop.
+/// SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Burn {
+    /// s.
+    pub arc_time: f64,
+    /// Heat entering the part over the arc, J.
+    pub heat: f64,
+    /// Laid as part of a drop ([`DropPart`]): its preheat is the metal beneath it as the drop
+    /// struck, and a dwell before the strike acts on it ([`Support::Deposit`] unless it lies
+    /// on the plate or, on the thin wall, its own node).
+    pub drop: Option<DropPart>,
+}
+
+impl Burn {
+    /// As deposit `d` of the schedule burns.
+    pub fn of(d: &Deposit) -> Burn {
+        Burn {
+            arc_time: d.arc_time,
+            heat: d.heat,
+            drop: d.drop,
+        }
+    }
+
+    /// Checks it for deposit i: a finite arc time and heat, neither negative.
+    pub fn check(&self, i: usize) -> Result<(), ThermalError> {
+        let fine = |x: f64| x.is_finite() && x >= 0.0;
+        if fine(self.arc_time) && fine(self.heat) {
+            Ok(())
+        } else {
+            Err(ThermalError::Schedule {
+                deposit: i,
+                reason: format!(
+                    "burns {} s with {} J; expected finite numbers, neither negative",
+                    self.arc_time, self.heat
+                ),
+            })
+        }
+    }
+}
+
+/// The drops a run has laid, and the readings of the one struck last.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Drops {
+    /// Deposits laid as part of a drop, in order.
+    laid: Vec<usize>,
+    readings: Vec<(usize, f64)>,
+}
+
+impl Drops {
+    /// Before deposit i is laid with `drop` on `deps`: a strike reads the drop's preheats now.
+    pub(crate) fn before(
+        &mut self,
+        deps: &[Deposit],
+        i: usize,
+        drop: Option<DropPart>,
+        beneath: impl Fn(usize) -> f64,
+    ) {
+        match drop {
+            Some(DropPart::Strikes { deposits }) => {
+                self.readings = strike_readings(deps, i, deposits, beneath);
+            }
+            // A drop that goes on without a strike read (a schedule that starts inside one)
+            // reads its own metal beneath now.
+            Some(DropPart::Continues) if !self.readings.iter().any(|r| r.0 == i) => {
+                self.readings = vec![(i, beneath(i))];
+            }
+            _ => {}
+        }
+    }
+
+    /// After deposit i is laid with `drop`: its preheat if it is part of a drop.
+    pub(crate) fn after(&mut self, i: usize, drop: Option<DropPart>) -> Option<f64> {
+        drop?;
+        self.laid.push(i);
+        self.readings.iter().find(|r| r.0 == i).map(|r| r.1)
+    }
+
+    pub(crate) fn contains(&self, i: usize) -> bool {
+        self.laid.binary_search(&i).is_ok()
+    }
+}
+
 /// A heat model running through a schedule. Cloning it is a checkpoint: the dwell planner
 /// restarts from one with a trial dwell instead of simulating the build again.
 pub trait HeatRun: Clone {
     /// Cool `dwell` seconds, then lay deposit i of the run's schedule (the next one): its metal
     /// arrives at the deposit temperature and the rest of its heat goes in over its arc time.
-    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError>;
+    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError> {
+        self.deposit_burning(i, dwell, None)
+    }
+    /// [`HeatRun::deposit`] with its arc burning as `burn` says instead of as the schedule does
+    /// (`None`: as scheduled). The run's clock moves by the burn's arc time.
+    fn deposit_burning(
+        &mut self,
+        i: usize,
+        dwell: f64,
+        burn: Option<Burn>,
+    ) -> Result<(), ThermalError>;
     /// Let the part cool with the arc off for `duration` seconds.
     fn cool(&mut self, duration: f64) -> Result<(), ThermalError>;
     /// Per deposit, the results so far: the preheat once it was read and the pool once the
@@ -332,8 +427,13 @@ macro_rules! either {
 }
 
 impl HeatRun for ModelRun {
-    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError> {
-        either!(self, r => r.deposit(i, dwell))
+    fn deposit_burning(
+        &mut self,
+        i: usize,
+        dwell: f64,
+        burn: Option<Burn>,
+    ) -> Result<(), ThermalError> {
+        either!(self, r => r.deposit_burning(i, dwell, burn))
     }
     fn cool(&mut self, duration: f64) -> Result<(), ThermalError> {
         either!(self, r => r.cool(duration))

@@ -23,6 +23,40 @@ pub struct Deposit {
     /// Where its bead segment begins when it does not continue the previous deposit (a new
     /// track after a travel move with the arc off); `None` on a continuous path.
     pub start: Option<[f64; 3]>,
+    /// Laid as part of a drop ([`DropPart`]); `None` on a running torch.
+    pub drop: Option<DropPart>,
+}
+
+/// A deposit laid as part of a drop, as skeleton arc AM lays its nodes (Radel et al. 2019): the
+/// torch stands while the arc melts the drop's wire, and the drop's metal lands on the part as it
+/// was when the arc struck. Its preheat is read then, on the metal beneath it, not `lead`
+/// upstream of a torch that does not run; a wait before the strike (a dwell) acts on it whatever
+/// it lies on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DropPart {
+    /// The arc strikes here, after the wait before it, for a drop of this deposit and the
+    /// `deposits − 1` after it.
+    Strikes { deposits: usize },
+    /// The drop struck before goes on.
+    Continues,
+}
+
+/// The preheats of a drop struck at deposit i over `deposits` deposits, read as it strikes: each
+/// one's metal beneath when that lies outside the drop, else (it lies on the drop's own metal)
+/// the strike point's. `beneath(k)` is the temperature now beneath deposit k.
+pub fn strike_readings(
+    deps: &[Deposit],
+    i: usize,
+    deposits: usize,
+    beneath: impl Fn(usize) -> f64,
+) -> Vec<(usize, f64)> {
+    let own = beneath(i);
+    (i..(i + deposits.max(1)).min(deps.len()))
+        .map(|k| match deps[k].support {
+            Some(s) if s >= i => (k, own),
+            _ => (k, beneath(k)),
+        })
+        .collect()
 }
 
 impl Deposit {
@@ -96,7 +130,8 @@ pub fn read_points(deps: &[Deposit], lead: f64) -> Vec<Option<usize>> {
 /// [`read_points`] with the fraction of that deposit's segment (and so of its arc time) at
 /// which the torch is exactly `lead` upstream: the reading is interpolated there, as the
 /// interface defines it, not taken at the arc's end (which would put it up to one point
-/// spacing closer to the arc, by how the spacing happens to fall).
+/// spacing closer to the arc, by how the spacing happens to fall). A drop's reading is taken
+/// again as its arc strikes ([`DropPart`]).
 pub fn read_fractions(deps: &[Deposit], lead: f64) -> Vec<Option<(usize, f64)>> {
     let s = arc_lengths(deps);
     (0..deps.len())
@@ -160,6 +195,7 @@ pub fn helix(
                 axis: [0.0, 0.0, 1.0],
                 support: (i >= n).then(|| i - n),
                 start: None,
+                drop: None,
             }
         })
         .collect()

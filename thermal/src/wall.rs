@@ -11,8 +11,8 @@ use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Network, Surroundings};
 use crate::run::{
-    Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult, Snapshot,
-    Support, Trace, replay,
+    Burn, Cells, CoolingSteps, Drops, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult,
+    Snapshot, Support, Trace, replay,
 };
 use crate::schedule::{Deposit, read_fractions, segment_start, validate};
 use std::collections::HashMap;
@@ -361,6 +361,7 @@ pub struct WallRun {
     /// (a dwell search trying longer and longer dwells) takes the steps one call would.
     cooling_step: f64,
     underpowered: usize,
+    drops: Drops,
     h_deposit: f64,
     h_ambient: f64,
 }
@@ -404,6 +405,7 @@ impl WallRun {
             now: deps.first().map_or(0.0, |d| d.arc_start()),
             laid: 0,
             underpowered: 0,
+            drops: Drops::default(),
             h_deposit: s.material.enthalpy(s.deposit_temperature),
             h_ambient: s.material.enthalpy(s.surroundings.ambient_k),
             settings: Arc::new(settings),
@@ -510,8 +512,17 @@ impl WallRun {
 }
 
 impl HeatRun for WallRun {
-    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError> {
+    fn deposit_burning(
+        &mut self,
+        i: usize,
+        dwell: f64,
+        burn: Option<Burn>,
+    ) -> Result<(), ThermalError> {
+        let burn = burn.unwrap_or_else(|| Burn::of(&self.deps[i]));
+        burn.check(i)?;
         self.cool(dwell)?;
+        let (t, below) = (&self.model.network.t, &self.below);
+        self.drops.before(&self.deps, i, burn.drop, |k| t[below[k]]);
         // Laid from here on: the arc's step below observes it.
         self.laid = i + 1;
         let deps = Arc::clone(&self.deps);
@@ -530,7 +541,7 @@ impl HeatRun for WallRun {
             }
         }
         let seg_mass = m.network.mass[node] * segment_share(deps, i, &m.length, &m.node_of);
-        let mut q = d.heat - seg_mass * (self.h_deposit - self.h_ambient);
+        let mut q = burn.heat - seg_mass * (self.h_deposit - self.h_ambient);
         if q < 0.0 {
             q = 0.0;
             self.underpowered += 1;
@@ -543,21 +554,25 @@ impl HeatRun for WallRun {
             .iter()
             .map(|&(k, _)| m.network.t[self.below[k]])
             .collect();
-        if d.arc_time > 0.0 {
+        let arc = burn.arc_time;
+        if arc > 0.0 {
             if total > 0.0 {
                 for (k, w) in &weights {
-                    self.power[*k] += q / d.arc_time * w / total;
+                    self.power[*k] += q / arc * w / total;
                 }
             } else {
-                self.power[node] += q / d.arc_time;
+                self.power[node] += q / arc;
             }
-            m.network.step(d.arc_time, &self.power);
-            self.now += d.arc_time;
-            self.observe(d.arc_time);
+            m.network.step(arc, &self.power);
+            self.now += arc;
+            self.observe(arc);
         }
         for (&(k, f), t0) in self.probes_at[i].iter().zip(before) {
             let t1 = self.model.network.t[self.below[k]];
             self.points[k].preheat = t0 + f * (t1 - t0);
+        }
+        if let Some(t) = self.drops.after(i, burn.drop) {
+            self.points[i].preheat = t;
         }
         // The melt pool behind the torch.
         let (mut len, mut vol, mut k) = (0.0, 0.0, node as isize);
@@ -603,8 +618,11 @@ impl HeatRun for WallRun {
         let (b, own) = (self.below[i], self.model.node_of[i]);
         let footprint = self.settings.footprint;
         let deps = &self.deps;
-        let read_after_support = matches!((deps[i].support, self.read_at[i]),
-            (Some(s), Some(r)) if s >= r || dist(deps[s].position, deps[r].position) < footprint);
+        // A drop's reading is taken as its own arc strikes, after the wait before it: the metal
+        // beneath is no longer the arc's.
+        let read_after_support = !self.drops.contains(i)
+            && matches!((deps[i].support, self.read_at[i]),
+                (Some(s), Some(r)) if s >= r || dist(deps[s].position, deps[r].position) < footprint);
         if b >= self.model.n_wall {
             Support::Plate
         } else if b >= own || read_after_support {

@@ -4,10 +4,10 @@
 
 use thermal::material::Material;
 use thermal::network::Surroundings;
-use thermal::schedule::{Deposit, helix};
+use thermal::schedule::{Deposit, DropPart, helix};
 use thermal::voxel::VoxelSettings;
 use thermal::wall::WallSettings;
-use thermal::{HeatModel, HeatRun, Plate, RunResult, Support, ThermalError};
+use thermal::{Burn, HeatModel, HeatRun, Plate, RunResult, Support, ThermalError};
 
 /// Two revolutions of 40 deposits, R 25 mm, on a 100 mm plate.
 fn schedule() -> Vec<Deposit> {
@@ -134,6 +134,149 @@ fn a_dwell_passed_to_deposit_is_a_gap_in_the_schedule() {
         assert!(passed.points[65].preheat < hot.points[65].preheat - 20.0);
         assert_eq!(passed.support[65], Support::Deposit);
         assert_eq!(passed.support[5], Support::Plate);
+    }
+}
+
+/// A burn other than the schedule's is the schedule with that arc time and heat: slowing a
+/// revolution down through `deposit_burning` on a run started on the planned schedule gives what
+/// a run of the slowed schedule gives, and the heat booked is the burns' heat.
+#[test]
+fn a_burn_is_the_schedule_with_that_arc_and_heat() {
+    let deps = schedule();
+    // The second revolution at half speed with 70 % of the power: twice the arc, 1.4 × the heat.
+    let slow = |d: &Deposit| Burn {
+        arc_time: 2.0 * d.arc_time,
+        heat: 1.4 * d.heat,
+        drop: None,
+    };
+    let mut slowed = deps.clone();
+    let mut shift = 0.0;
+    for d in &mut slowed[40..] {
+        let b = slow(d);
+        shift += b.arc_time - d.arc_time;
+        (d.arc_time, d.heat) = (b.arc_time, b.heat);
+        d.time += shift;
+    }
+    for model in models(Material::g3si()) {
+        let scheduled = model.simulate(&slowed).unwrap();
+        let mut run = model.start(&deps).unwrap();
+        for (i, d) in deps.iter().enumerate() {
+            let before = run.clone().finish().ledger.energy_in();
+            run.deposit_burning(i, 0.0, (i >= 40).then(|| slow(d)))
+                .unwrap();
+            // Each slowed deposit books its burn's heat (a deposit whose arc cannot pay for
+            // its metal books the metal: none here at 1.4 × the heat).
+            let booked = run.clone().finish().ledger.energy_in() - before;
+            if i >= 40 {
+                let heat = slow(d).heat;
+                assert!(
+                    (booked - heat).abs() < 1e-6 * heat,
+                    "{}: deposit {i} booked {booked} J of {heat} J",
+                    model.name()
+                );
+            }
+        }
+        assert!((run.now() - slowed.last().unwrap().time).abs() < 1e-9);
+        let burned = run.finish();
+        let worst = preheats(&scheduled)
+            .iter()
+            .zip(preheats(&burned))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-3,
+            "{}: preheats differ by {worst} K",
+            model.name()
+        );
+        // A burn that is no number is refused with the deposit named.
+        let mut run = model.start(&deps).unwrap();
+        let bad = Burn {
+            arc_time: f64::NAN,
+            heat: 1.0,
+            drop: None,
+        };
+        match run.deposit_burning(0, 0.0, Some(bad)) {
+            Err(ThermalError::Schedule { deposit: 0, .. }) => {}
+            other => panic!("{}: {other:?}", model.name()),
+        }
+    }
+}
+
+/// A drop is judged on the metal beneath it as its arc strikes, after the wait before it: a
+/// dwell can act on it, its preheat (every deposit of it) is the temperature the run had beneath
+/// it then, and a drop laid through `deposit_burning` on the planned schedule is the drop the
+/// schedule names.
+#[test]
+fn a_drop_reads_its_preheat_as_its_arc_strikes() {
+    let deps = schedule();
+    // The second revolution's last ten points laid as five drops of two, 20 s apart.
+    let part = |i: usize| match (i - 70) % 2 {
+        0 => DropPart::Strikes { deposits: 2 },
+        _ => DropPart::Continues,
+    };
+    let wait = |i: usize| {
+        if (i - 70).is_multiple_of(2) {
+            20.0
+        } else {
+            0.0
+        }
+    };
+    let mut dropped = deps.clone();
+    let mut shift = 0.0;
+    for (i, d) in dropped.iter_mut().enumerate().skip(70) {
+        shift += wait(i);
+        d.time += shift;
+        d.drop = Some(part(i));
+    }
+    for model in models(Material::g3si()) {
+        let mut run = model.start(&deps).unwrap();
+        for i in 0..70 {
+            run.deposit(i, 0.0).unwrap();
+        }
+        let mut struck = Vec::new();
+        for i in 70..80 {
+            if wait(i) > 0.0 {
+                let mut cooled = run.clone();
+                cooled.cool(wait(i)).unwrap();
+                struck = vec![
+                    cooled.temperature_beneath(i),
+                    cooled.temperature_beneath(i + 1),
+                ];
+            }
+            let drop = Burn {
+                drop: Some(part(i)),
+                ..Burn::of(&deps[i])
+            };
+            run.deposit_burning(i, wait(i), Some(drop)).unwrap();
+            assert_eq!(run.support(i), Support::Deposit, "{}", model.name());
+            let read = run.points()[i].preheat;
+            let beneath = struck[(i - 70) % 2];
+            assert!(
+                (read - beneath).abs() < 1e-6,
+                "{}: drop {i} read {read} K, {beneath} K beneath as it struck",
+                model.name()
+            );
+        }
+        let burned = run.finish();
+        let scheduled = model.simulate(&dropped).unwrap();
+        // The thin wall's cooling steps, summed from another start, round within 1e-12 K.
+        let worst = preheats(&burned)
+            .iter()
+            .zip(preheats(&scheduled))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-6, "{}: {worst} K", model.name());
+        assert_eq!(burned.support, scheduled.support);
+        // Laid without the waits the same points lie on hotter metal.
+        let hot = model.simulate(&deps).unwrap();
+        eprintln!(
+            "{} {} {} {} {}",
+            model.name(),
+            hot.points[75].preheat,
+            burned.points[75].preheat,
+            hot.points[74].preheat,
+            burned.points[74].preheat
+        );
     }
 }
 
@@ -390,6 +533,7 @@ fn tracks_with_travel_between_them_on_both_models() {
                 axis: [0.0, 0.0, 1.0],
                 support: (track > 0).then(|| deps.len() - n),
                 start: (k == 0).then_some([-len / 2.0, 0.0, h * (track + 1) as f64]),
+                drop: None,
             });
         }
     }

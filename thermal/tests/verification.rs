@@ -364,6 +364,7 @@ fn pad_on_plate(
                 axis: [0.0, 0.0, 1.0],
                 support: k.checked_sub(1),
                 start: Some([-4.5e-3, 0.0, z]),
+                drop: None,
             }
         })
         .collect();

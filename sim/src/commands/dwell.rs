@@ -5,6 +5,8 @@ use super::simulate::{heat, record, write_thermal};
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
+use crate::pipeline::deposition::Cooling;
+use crate::pipeline::dwell::DwellPlan;
 use crate::pipeline::dwell::{dwell_points, first_risk, uniform_baseline, wait_until_cool};
 use crate::pipeline::{Build, Simulation};
 use crate::pipeline::{arc_stops, risk};
@@ -36,7 +38,7 @@ pub fn run(scenario: &Path, out: &Path, extras: Extras) -> Result<String> {
 pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<String> {
     let part = load_part(&s.part)?;
     let b = super::plan::build(s, &part)?;
-    let before = heat(&b, &[], 0)?;
+    let before = heat(&b, &Cooling::default(), 0)?;
     let clock = Instant::now();
     let (plan, budget) = {
         let _stage = Stage::start("planning the dwells");
@@ -49,7 +51,7 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
         }
     };
     let search_s = clock.elapsed().as_secs_f64();
-    let after = heat(&b, &plan.dwell_s, s.output.frames)?;
+    let after = heat(&b, &plan.cooling, s.output.frames)?;
     let (pl, d) = (&b.plan, &b.params.dwell);
     let risks_after = after.risks(&b.criteria);
     let zone = b.closing_zone();
@@ -63,8 +65,12 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
         |i: usize| risk::judge_for_dwell(&b.criteria, &r.points[i], r.support[i], 0.0).is_some();
     let beyond_dwells = risky_after.iter().filter(|&&i| !dwell_can_help(i)).count();
 
-    let total = plan.dwell_s.iter().sum::<f64>();
-    let count = plan.dwell_s.iter().filter(|&&d| d > 0.0).count();
+    let c = &plan.cooling;
+    let total = c.total_dwell_s();
+    let count = (0..c.dwell_s.len())
+        .filter(|&i| c.dwell_s[i] > 0.0 && c.drop[i].is_none())
+        .count();
+    let stops = c.arc_stops();
     let mut summary = json!({
         "policy": "revolution",
         "model": after.model,
@@ -76,20 +82,23 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
             "bond": d.bond,
         },
         "total_dwell_s": total,
+        // Dwells with the arc off, drops' waits apart.
         "dwell_count": count,
-        // Every arc start after the first: one a dwell (no drops are laid yet).
-        "arc_stops": count,
-        "shortest_dwell_s": plan.dwell_s.iter().copied().filter(|&d| d > 0.0).reduce(f64::min),
+        // Every arc start after the first: each dwell and each drop.
+        "arc_stops": stops,
+        "shortest_dwell_s": (0..c.dwell_s.len())
+            .filter(|&i| c.dwell_s[i] > 0.0 && c.drop[i].is_none())
+            .map(|i| c.dwell_s[i])
+            .reduce(f64::min),
         "min_dwell_s": d.min_dwell_s,
-        "cost_s": total + d.count_weight_s * count as f64,
+        "cost_s": total + d.count_weight_s * stops as f64,
         "build_time_s": {"before": before.build_time_s(), "after": after.build_time_s()},
+        "slow_down": slow_down_json(&b, &after),
+        "closing_strategy": closing_json(&b, &plan, &after),
         "first_risk_before": first_risk_json(&b, &before),
         "risky_points_after": risky_after.len(),
         "risky_points_after_outside_closing_zone": risky_after.iter().filter(|&&i| !zone[i]).count(),
         "risky_points_after_no_dwell_can_help": beyond_dwells,
-        // No closing strategy (heat input ramped down, drops) is built: points no dwell can
-        // help stay at risk, and are said to.
-        "closing_strategy": Value::Null,
         "risky_after": risky_after.iter().take(50).map(|&i| json!({"i": i, "layer": pl.points[i].layer,
             "closing_zone": zone[i], "reason": risks_after[i].map(|r| r.as_str()),
             "dwell_can_help": dwell_can_help(i), "laid_on": support_name(r.support[i]),
@@ -112,16 +121,20 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
         let _stage = Stage::start("the arc-stop front: a dwell plan per weight of an arc stop");
         let known = budget.as_ref().map_or(&[][..], |(_, r)| r.tried.as_slice());
         let plans = arc_stops::front(&b, known)?;
-        let mut csv = String::from("weight_s,arc_stops,total_dwell_s,build_time_s,on_front\n");
+        let mut csv = String::from(
+            "weight_s,arc_stops,total_dwell_s,build_time_s,on_front,slowed_points,drops\n",
+        );
         for t in &plans {
             let _ = writeln!(
                 csv,
-                "{},{},{:.3},{:.3},{}",
+                "{},{},{:.3},{:.3},{},{},{}",
                 t.weight_s,
                 t.arc_stops,
                 t.total_dwell_s,
                 t.build_time_s,
-                u8::from(arc_stops::on_front(t, &plans))
+                u8::from(arc_stops::on_front(t, &plans)),
+                t.slowed_points,
+                t.drops
             );
         }
         dir.write("pareto.csv", csv.as_bytes())?;
@@ -133,7 +146,8 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
         let _stage = Stage::start("baselines: uniform dwell, wait until cool");
         let deps = b.deposits();
         let model = b.heat_model(deps, Vec::new());
-        let search = b.search();
+        let pacing = b.pacing();
+        let search = b.search(&pacing);
         let uniform = uniform_baseline(&search, pl, &model, deps)?;
         // Where the uniform policy stops working (a dome's closing zone), both are compared on
         // the points before.
@@ -142,7 +156,7 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
             .into_iter()
             .filter(|&i| i < until)
             .count();
-        let planned_there: f64 = plan.dwell_s[..until].iter().sum();
+        let planned_there: f64 = plan.dwell_s()[..until].iter().sum();
         let waits = wait_until_cool(&search, pl, &model, deps)?;
         let wait_total: f64 = waits.iter().sum();
         let n = deps.len();
@@ -163,7 +177,7 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
                 "safe": wait_risk.is_none(),
                 "first_risk": wait_risk.map(|(i, r)| json!({"i": i, "layer": pl.points[i].layer, "reason": r.as_str()})),
                 "its_dwell_before_that_s": waits[..wait_safe_until].iter().sum::<f64>(),
-                "planned_dwell_before_that_s": plan.dwell_s[..wait_safe_until].iter().sum::<f64>()},
+                "planned_dwell_before_that_s": plan.dwell_s()[..wait_safe_until].iter().sum::<f64>()},
         });
         if let Some(d) = uniform.dwell_s {
             summary["ratio_to_uniform"] = json!(planned_there / (d * slots as f64).max(1e-9));
@@ -174,10 +188,13 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
     write_thermal(dir, &b, &after)?;
     record(dir, s, &part, &b, &after, Some(&before))?;
     let mut csv = String::from("i,layer,t_s,dwell_s,reason,x_mm,y_mm,z_mm\n");
-    for (i, &d) in plan.dwell_s.iter().enumerate() {
-        if d > 0.0 {
+    for (i, &d) in plan.dwell_s().iter().enumerate() {
+        if c.strikes(i) {
             let q = &pl.points[i];
-            let reason = plan.reason[i].map_or("", |r| r.as_str());
+            let reason = match (c.drop[i], plan.reason[i]) {
+                (Some(_), _) => "drop",
+                (None, r) => r.map_or("", |r| r.as_str()),
+            };
             let _ = writeln!(
                 csv,
                 "{i},{},{:.3},{d:.3},{reason},{:.3},{:.3},{:.3}",
@@ -192,7 +209,9 @@ pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<
     dir.write("dwells.csv", csv.as_bytes())?;
     dir.write_json("dwell.json", &summary)?;
     Ok(format!(
-        "{count} dwells, {total:.0} s in all; build {:.0} s → {:.0} s; {} points still at risk; search {:.1} {} builds of wall time",
+        "{count} dwells, {total:.0} s in all, {} points slowed, closed by {}: {stops} arc stops; build {:.0} s → {:.0} s; {} points still at risk; search {:.1} {} builds of wall time",
+        c.slowed(),
+        plan.closing.name(),
         before.build_time_s(),
         after.build_time_s(),
         risky_after.len(),
@@ -215,7 +234,79 @@ fn support_name(s: thermal::Support) -> &'static str {
 
 fn tried_json(t: &arc_stops::Tried) -> Value {
     json!({"weight_s_per_stop": t.weight_s, "arc_stops": t.arc_stops,
-        "total_dwell_s": t.total_dwell_s, "build_time_s": t.build_time_s})
+        "total_dwell_s": t.total_dwell_s, "build_time_s": t.build_time_s,
+        "slowed_points": t.slowed_points, "drops": t.drops, "closing_strategy": t.closing})
+}
+
+/// What slowing down did: how many points, how slow, the least power.
+fn slow_down_json(b: &Build, sim: &Simulation) -> Value {
+    let slowed: Vec<usize> = (0..sim.pace.len())
+        .filter(|&i| sim.pace[i] != 1.0 && sim.drop[i].is_none())
+        .collect();
+    let layers: std::collections::BTreeSet<usize> =
+        slowed.iter().map(|&i| b.plan.points[i].layer).collect();
+    let extra_s: f64 = slowed
+        .iter()
+        .map(|&i| sim.deposits[i].arc_time * (1.0 - 1.0 / sim.pace[i]))
+        .fold(0.0, |a, b| a + b);
+    json!({
+        "points": slowed.len(),
+        "revolutions": layers.len(),
+        "pace_max": slowed.iter().map(|&i| sim.pace[i]).reduce(f64::max),
+        "power_w_min": slowed.iter().map(|&i| b.bead_as_laid(sim, i).power_w).reduce(f64::min),
+        "power_w_planned_there_max": slowed.iter().map(|&i| b.beads.beads[i].power_w).reduce(f64::max),
+        "extra_arc_time_s": extra_s,
+    })
+}
+
+/// The closing strategy and how it did: where it starts, and the points still at risk there.
+fn closing_json(b: &Build, plan: &DwellPlan, sim: &Simulation) -> Value {
+    use crate::pipeline::dwell::Closing;
+    let from = match plan.closing {
+        Closing::NotNeeded => None,
+        Closing::RampDown { from, .. } | Closing::Drops { from, .. } => Some(from),
+    };
+    let risks = sim.risks(&b.criteria);
+    let risky: Vec<usize> = from.map_or(Vec::new(), |f| {
+        (f..risks.len()).filter(|&i| risks[i].is_some()).collect()
+    });
+    let mut v = json!({
+        "name": plan.closing.name(),
+        "from_point": from,
+        "from_layer": from.map(|f| b.plan.points[f].layer),
+        "safe": risky.is_empty(),
+        "risky_points": risky.len(),
+        "risky_layers": risky.iter().map(|&i| b.plan.points[i].layer).collect::<std::collections::BTreeSet<_>>(),
+    });
+    match plan.closing {
+        Closing::NotNeeded => {}
+        Closing::RampDown { pace, from } => {
+            v["pace"] = json!(pace);
+            v["power_w_min"] = json!(b.bead_as_laid(sim, from).power_w);
+        }
+        Closing::Drops {
+            from,
+            count,
+            longest_wait_s,
+        } => {
+            let pacing = b.pacing();
+            let m = &b.params.material;
+            let caps: Vec<_> = pacing
+                .drops(from)
+                .into_iter()
+                .map(|d| pacing.drop_cap(d))
+                .collect();
+            let r_max = caps.iter().map(|c| c.radius).fold(0.0, f64::max);
+            let bond = bead_model::bond::bond_number(m.density_kg_m3, r_max, m.surface_tension_n_m);
+            v["drops"] = json!(count);
+            v["longest_wait_s"] = json!(longest_wait_s);
+            v["total_wait_s"] = json!(plan.cooling.dwell_s[from..].iter().sum::<f64>());
+            v["drop_radius_mm_max"] = json!(r_max * 1e3);
+            v["drop_bond_max"] = json!(bond);
+            v["drop_bond_limit"] = json!(b.params.bead.bond_max);
+        }
+    }
+    v
 }
 
 fn first_risk_json(b: &Build, sim: &Simulation) -> Value {

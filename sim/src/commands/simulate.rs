@@ -4,6 +4,7 @@
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
+use crate::pipeline::deposition::Cooling;
 use crate::pipeline::{Build, Simulation};
 use crate::progress::Stage;
 use crate::record::{Run, Scene};
@@ -19,7 +20,7 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     let part = load_part(&s.part)?;
     let mut dir = RunDir::create(out)?;
     let b = super::plan::build(&s, &part)?;
-    let sim = heat(&b, &[], s.output.frames)?;
+    let sim = heat(&b, &Cooling::default(), s.output.frames)?;
     super::plan::write_plan(&mut dir, &s, &b)?;
     write_thermal(&mut dir, &b, &sim)?;
     record(&mut dir, &s, &part, &b, &sim, None)?;
@@ -27,15 +28,15 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     Ok(summary(&b, &sim))
 }
 
-/// The build heated with `dwell_s`, behind a spinner on a terminal; with `frames` > 0 also the
-/// step-by-step temperature of the points the temperature-history plot shows.
-pub fn heat(b: &Build, dwell_s: &[f64], frames: usize) -> Result<Simulation> {
+/// The build heated as `cooling` says, behind a spinner on a terminal; with `frames` > 0 also
+/// the step-by-step temperature of the points the temperature-history plot shows.
+pub fn heat(b: &Build, cooling: &Cooling, frames: usize) -> Result<Simulation> {
     let _stage = Stage::start("simulating the heat of the build");
     let traces = match frames {
         0 => Vec::new(),
         _ => crate::record::history_points(b.plan.points.len()).to_vec(),
     };
-    Ok(b.simulate_traced(dwell_s, frames, traces)?)
+    Ok(b.simulate_cooled(cooling, frames, traces)?)
 }
 
 /// The inspection outputs the scenario switches on (`[output]`): run.rrd, run.mcap, fields.h5
@@ -144,7 +145,7 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         zone_layers[q.layer] |= z;
     }
     let mut csv = String::from(
-        "layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk,closing_zone\n",
+        "layer,t_start_s,duration_s,preheat_max_c,preheat_mean_c,dwell_s,risk,closing_zone,pace_max,drops\n",
     );
     // A revolution's risk: the first its points break, judged as thermal.json and dwell.json
     // judge them.
@@ -158,34 +159,44 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         let risk = layer_risk[l.layer].unwrap_or("");
         let _ = writeln!(
             csv,
-            "{},{:.3},{:.3},{:.2},{:.2},{:.3},{risk},{}",
+            "{},{:.3},{:.3},{:.2},{:.2},{:.3},{risk},{},{:.3},{}",
             l.layer,
             l.t_start_s,
             l.duration_s,
             celsius(l.preheat_max_k),
             celsius(l.preheat_mean_k),
             l.dwell_s,
-            u8::from(zone_layers[l.layer])
+            u8::from(zone_layers[l.layer]),
+            l.pace_max,
+            l.drops
         );
     }
     dir.write("layers.csv", csv.as_bytes())?;
     let mut path = format!(
-        "{},preheat_c,peak_c,pool_length_mm,time_above_s,built_height_mm,built_width_mm,stickout_mm\n",
+        "{},preheat_c,peak_c,pool_length_mm,time_above_s,built_height_mm,built_width_mm,stickout_mm,pace,drop\n",
         super::plan::PATH_COLUMNS
     );
     for (i, q) in pl.points.iter().enumerate() {
         let (d, p) = (&sim.deposits[i], &r.points[i]);
-        super::plan::path_row(&mut path, i, q, &b.beads.beads[i], d.time, sim.dwell_s[i]);
+        let bead = b.bead_as_laid(sim, i);
+        super::plan::path_row(&mut path, i, q, &bead, d.time, sim.dwell_s[i]);
         let _ = writeln!(
             path,
-            ",{:.2},{:.2},{:.3},{:.3},{:.5},{:.5},{:.4}",
+            ",{:.2},{:.2},{:.3},{:.3},{:.5},{:.5},{:.4},{:.4},{}",
             celsius(p.preheat),
             celsius(p.peak),
             p.pool_length * 1e3,
             p.time_above,
             built[i].height * 1e3,
             built[i].width * 1e3,
-            built[i].stickout * 1e3
+            built[i].stickout * 1e3,
+            sim.pace[i],
+            // 0: a running torch; 1: a drop strikes here; 2: the drop goes on.
+            match sim.drop[i] {
+                None => 0,
+                Some(thermal::schedule::DropPart::Strikes { .. }) => 1,
+                Some(thermal::schedule::DropPart::Continues) => 2,
+            }
         );
     }
     dir.write("path.csv", path.as_bytes())?;

@@ -18,6 +18,7 @@
 
 use crate::error::{Error, Result};
 use crate::output::{RunDir, write_atomic};
+use crate::pipeline::deposition::Cooling;
 use crate::scenario::Scenario;
 use rayon::prelude::*;
 use serde_json::Value;
@@ -230,19 +231,20 @@ fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
     let mut d = RunDir::create(dir)?;
     let b = super::plan::build(&s, &part)?;
     super::plan::write_plan(&mut d, &s, &b)?;
-    let dwell = if study.command == "dwell" {
-        b.plan_dwells()?.dwell_s
+    let cooling = if study.command == "dwell" {
+        b.plan_dwells()?.cooling
     } else {
-        vec![0.0; b.plan.points.len()]
+        Cooling::none(b.plan.points.len())
     };
-    let sim = b.simulate(&dwell, 0)?;
+    let sim = b.simulate_cooled(&cooling, 0, Vec::new())?;
+    let dwell = &cooling.dwell_s;
     super::simulate::write_thermal(&mut d, &b, &sim)?;
     let overrides: serde_json::Map<String, Value> = c
         .overrides
         .iter()
         .map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or(Value::Null)))
         .collect();
-    d.write_json("case.json", &serde_json::json!({"id": c.id, "overrides": overrides, "total_dwell_s": dwell.iter().sum::<f64>(), "dwell_count": dwell.iter().filter(|&&x| x > 0.0).count()}))?;
+    d.write_json("case.json", &serde_json::json!({"id": c.id, "overrides": overrides, "total_dwell_s": dwell.iter().sum::<f64>(), "dwell_count": dwell.iter().filter(|&&x| x > 0.0).count(), "arc_stops": cooling.arc_stops()}))?;
     d.finish("study case", s.to_json())?;
     Ok(())
 }

@@ -6,8 +6,9 @@
 //! prefers one dwell before a revolution to several inside it. A budget is met by trying
 //! heavier weights until the plan stops the arc no more often than allowed; the plans on the
 //! way are real plans, and those that no other beats on both counts make the Pareto front.
-//! Cooling with the arc kept on (slowing down) is not built: the fewest stops reachable here
-//! is one per revolution that needs cooling.
+//! The heavier the weight, the more the planner also slows revolutions down instead of stopping
+//! the arc ([`super::pace`]); a closing zone laid as drops stops the arc once a drop whatever the
+//! weight.
 
 use super::Build;
 use super::dwell::DwellPlan;
@@ -23,22 +24,31 @@ pub struct Tried {
     pub weight_s: f64,
     pub arc_stops: usize,
     pub total_dwell_s: f64,
-    /// The build with the plan's dwells, s.
+    /// The build with the plan's dwells, paces and drops, s.
     pub build_time_s: f64,
+    /// Points laid slower than planned.
+    pub slowed_points: usize,
+    pub drops: usize,
+    /// The closing strategy ([`super::dwell::Closing::name`]).
+    pub closing: &'static str,
 }
 
-/// The arc starts after the first: one a dwell.
+/// The arc starts after the first: each dwell and each drop.
 pub fn arc_stops(plan: &DwellPlan) -> usize {
-    plan.dwell_s.iter().filter(|&&d| d > 0.0).count()
+    plan.cooling.arc_stops()
 }
 
 fn tried(b: &Build, weight_s: f64, plan: &DwellPlan) -> Tried {
-    let total: f64 = plan.dwell_s.iter().sum();
+    let c = &plan.cooling;
+    let build = super::deposition::schedule(&b.params.process, &b.plan, &b.beads, c);
     Tried {
         weight_s,
         arc_stops: arc_stops(plan),
-        total_dwell_s: total,
-        build_time_s: b.deposits.last().map_or(0.0, |d| d.time) + total,
+        total_dwell_s: c.total_dwell_s(),
+        build_time_s: build.last().map_or(0.0, |d| d.time),
+        slowed_points: c.slowed(),
+        drops: c.drops(),
+        closing: plan.closing.name(),
     }
 }
 
@@ -114,6 +124,9 @@ mod tests {
             arc_stops: stops,
             total_dwell_s: 0.0,
             build_time_s: build,
+            slowed_points: 0,
+            drops: 0,
+            closing: "not_needed",
         }
     }
 

@@ -21,6 +21,26 @@ pub struct Bead {
     pub tilt_rad: f64,
 }
 
+impl Bead {
+    /// The same deposit laid `pace` times slower: wire feed and travel speed divided together
+    /// (Eq.7's height depends on their ratio alone), the power the slower wire feed gives, and the
+    /// heat per length that follows.
+    pub fn paced(&self, pace: f64, p: &Process) -> Bead {
+        if pace == 1.0 {
+            return *self;
+        }
+        let (wfs, travel) = (self.wfs_m_s / pace, self.travel_m_s / pace);
+        let power = p.power.power(wfs);
+        Bead {
+            wfs_m_s: wfs,
+            travel_m_s: travel,
+            power_w: power,
+            heat_j_m: energy_per_length(power, p.efficiency, travel),
+            ..*self
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 pub struct Beads {
     pub beads: Vec<Bead>,

@@ -1,11 +1,11 @@
 //! From a plan and its beads to the heat models' input: the deposition schedule and the model
 //! with its settings. Units change here: the plan is in mm, the heat models in SI.
 
-use super::beads::Beads;
+use super::beads::{Bead, Beads};
 use super::params::{Material, Process, ThermalModel, ThermalSettings};
 use planner::plan::Plan;
 use thermal::network::Surroundings;
-use thermal::schedule::Deposit;
+use thermal::schedule::{Deposit, DropPart};
 use thermal::voxel::VoxelSettings;
 use thermal::wall::WallSettings;
 use thermal::{HeatModel, Plate};
@@ -19,22 +19,89 @@ const MAX_COOLING_STEP_S: f64 = 30.0;
 /// The voxel model's explicit step as a share of its stability limit.
 const VOXEL_COURANT: f64 = 0.9;
 
-/// One deposit per path point; `dwell_s[i]` pauses the arc before point i.
-pub fn schedule(p: &Process, pl: &Plan, b: &Beads, dwell_s: &[f64]) -> Vec<Deposit> {
+/// How the build is cooled, per path point: what the dwell planner decides. Empty vectors (or
+/// shorter ones) mean no dwell, the planned pace, no drop.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Cooling {
+    /// The arc's pause before the point, s.
+    pub dwell_s: Vec<f64>,
+    /// Wire feed and travel speed divided by this (1: as planned; [`super::pace`]).
+    pub pace: Vec<f64>,
+    /// Laid as part of a drop ([`DropPart`]): the closing strategy of skeleton arc AM.
+    pub drop: Vec<Option<DropPart>>,
+}
+
+impl Cooling {
+    /// Dwells alone.
+    pub fn dwells(dwell_s: &[f64]) -> Cooling {
+        Cooling {
+            dwell_s: dwell_s.to_vec(),
+            ..Cooling::default()
+        }
+    }
+
+    /// No dwell, the planned pace and no drop at each of `n` points.
+    pub fn none(n: usize) -> Cooling {
+        Cooling {
+            dwell_s: vec![0.0; n],
+            pace: vec![1.0; n],
+            drop: vec![None; n],
+        }
+    }
+
+    pub fn dwell(&self, i: usize) -> f64 {
+        self.dwell_s.get(i).copied().unwrap_or(0.0)
+    }
+
+    pub fn pace(&self, i: usize) -> f64 {
+        self.pace.get(i).copied().unwrap_or(1.0)
+    }
+
+    pub fn drop_part(&self, i: usize) -> Option<DropPart> {
+        self.drop.get(i).copied().flatten()
+    }
+
+    /// Whether the arc strikes anew before point i: after a dwell, or for a drop (even with no
+    /// wait before it).
+    pub fn strikes(&self, i: usize) -> bool {
+        self.dwell(i) > 0.0 || matches!(self.drop_part(i), Some(DropPart::Strikes { .. }))
+    }
+
+    /// Every arc start after the first: each dwell and each drop.
+    pub fn arc_stops(&self) -> usize {
+        let n = self.dwell_s.len().max(self.drop.len());
+        (1..n).filter(|&i| self.strikes(i)).count()
+    }
+
+    pub fn total_dwell_s(&self) -> f64 {
+        self.dwell_s.iter().sum()
+    }
+
+    /// Points laid at another pace than planned.
+    pub fn slowed(&self) -> usize {
+        self.pace.iter().filter(|&&k| k != 1.0).count()
+    }
+
+    /// Drops struck.
+    pub fn drops(&self) -> usize {
+        self.drop
+            .iter()
+            .filter(|d| matches!(d, Some(DropPart::Strikes { .. })))
+            .count()
+    }
+}
+
+/// One deposit per path point, cooled as `cooling` says: a dwell pauses the arc before a point,
+/// a pace slows it down ([`Bead::paced`]), a drop is laid standing.
+pub fn schedule(p: &Process, pl: &Plan, b: &Beads, cooling: &Cooling) -> Vec<Deposit> {
     let n_gen = pl.generators.len();
     let mut t = 0.0;
     pl.points
         .iter()
         .enumerate()
         .map(|(i, q)| {
-            let seg_m = if i == 0 {
-                p.bead_width_m
-            } else {
-                (q.position - pl.points[i - 1].position).norm() * 1e-3
-            };
-            let bead = &b.beads[i];
-            let arc = seg_m / bead.travel_m_s;
-            t += dwell_s.get(i).copied().unwrap_or(0.0) + arc;
+            let arc = burn(p, &b.beads[i], segment_m(p, pl, i), cooling.pace(i));
+            t += cooling.dwell(i) + arc.arc_time;
             Deposit {
                 position: [
                     q.position.x * 1e-3,
@@ -42,17 +109,39 @@ pub fn schedule(p: &Process, pl: &Plan, b: &Beads, dwell_s: &[f64]) -> Vec<Depos
                     q.position.z * 1e-3,
                 ],
                 time: t,
-                arc_time: arc,
-                heat: p.efficiency * bead.power_w * arc,
+                arc_time: arc.arc_time,
+                heat: arc.heat,
                 width: p.bead_width_m,
                 height: (q.deposit_mm * 1e-3).max(1e-5),
                 axis: [q.tool.x, q.tool.y, q.tool.z],
                 // The spiral lays point i on the same generator one revolution earlier.
                 support: (q.layer > 0 && i >= n_gen).then(|| i - n_gen),
                 start: None,
+                drop: cooling.drop_part(i),
             }
         })
         .collect()
+}
+
+/// The length of bead point i lays, m: from the previous point (the first lays one bead width).
+pub fn segment_m(p: &Process, pl: &Plan, i: usize) -> f64 {
+    if i == 0 {
+        p.bead_width_m
+    } else {
+        (pl.points[i].position - pl.points[i - 1].position).norm() * 1e-3
+    }
+}
+
+/// How a bead segment of `seg_m` burns at `pace`: the arc time at the paced travel speed, and the
+/// share η of the paced power over it (the drop flag is the caller's).
+pub fn burn(p: &Process, bead: &Bead, seg_m: f64, pace: f64) -> thermal::Burn {
+    let bead = bead.paced(pace, p);
+    let arc = seg_m / bead.travel_m_s;
+    thermal::Burn {
+        arc_time: arc,
+        heat: p.efficiency * bead.power_w * arc,
+        drop: None,
+    }
 }
 
 /// The heat models' material: the G3Si tables with the given density, or constants.

@@ -1,32 +1,49 @@
-//! The cooling-dwell planner: where to pause the arc and for how long so that no risk criterion
-//! is broken, with as little dwell as possible, and the baselines it is judged against.
+//! The cooling planner: where to pause the arc, where to slow it down and how to close a closed
+//! part, so that no risk criterion is broken, in the least build time, each arc stop weighed as
+//! `count_weight_s` seconds; and the baselines it is judged against.
 //!
 //! The search walks the build once, revolution by revolution, from checkpoints of the thermal run
-//! (a clone of its state). A revolution is simulated without a dwell; if it breaks a criterion,
-//! two remedies are sized and the cheaper kept (dwell plus `count_weight_s` per arc stop):
+//! (a clone of its state). A revolution is simulated as the one before it was laid; if it breaks
+//! a criterion, remedies are sized and the cheapest kept:
 //!
+//! - slowing down ([`super::pace`]): the revolution's stretch laid at the smallest of a few paces
+//!   that keeps it safe, the arc kept on; its cost is the longer arc time (each revolution is
+//!   tried as planned and at the pace of the one before it first);
 //! - one dwell before the revolution's first preheat reading (the deposit during whose arc the
 //!   torch is `lead_mm` upstream of its first point), so that the whole revolution is laid on
 //!   metal that has cooled: the smallest such dwell, from a few simulations of that revolution;
 //! - dwells inside the revolution, each just before the deposit whose arc would break a
-//!   criterion, as short as keeps it safe. Near a closing point a revolution lasts seconds and
-//!   heats its own substrate as it goes: no dwell before it can keep it under the limit, and
-//!   only these can.
+//!   criterion, as short as keeps it safe;
+//! - where stops cost and slowing alone does not do it, those dwells at the pace that kept the
+//!   revolution safe longest.
+//!
+//! Near a closing point revolutions get shorter than the torch's reach: a point is laid on metal
+//! laid while its own preheat was read, and no dwell can come between the two. From the first
+//! revolution with such a point, or the first within `closing_zone_mm` of the closing point that
+//! dwells leave at risk (the closing zone), the planner tries, in order: going on as
+//! before (the zone is safe under every criterion), the heat input ramped down (the zone at the
+//! slowest pace the window allows, the least power), and drops (every point laid standing after
+//! a wait until the metal beneath it is under the limit, as skeleton arc AM lays its nodes). It
+//! says which ([`Closing`]), and which points none keeps safe.
 
+use super::deposition::Cooling;
+use super::pace::Pacing;
 use super::params::DwellSettings;
-use super::risk::{Criteria, Risk, judge_for_dwell};
+use super::risk::{Criteria, Risk, judge, judge_for_dwell};
+use bead_model::bond::bond_number;
 use planner::plan::Plan;
-use thermal::schedule::Deposit;
-use thermal::schedule::read_points;
+use thermal::schedule::{Deposit, DropPart, read_points, strike_readings};
 use thermal::{CoolingSteps, HeatModel, HeatRun, Support, ThermalError};
 
-/// What a dwell search judges by and aims for.
+/// What a dwell search judges by, aims for and may do.
 #[derive(Debug, Clone, Copy)]
 pub struct Search<'a> {
     pub criteria: &'a Criteria,
     pub dwell: &'a DwellSettings,
     /// The cooling of the excess above it is close to exponential, K.
     pub ambient_k: f64,
+    /// How each point burns at another pace, or as a drop.
+    pub pacing: &'a Pacing<'a>,
 }
 
 impl Search<'_> {
@@ -38,10 +55,39 @@ impl Search<'_> {
     fn target_k(&self) -> f64 {
         self.dwell.interpass_max_k - self.dwell.margin_k
     }
+
+    /// Lay deposit i after `dwell` at `pace`.
+    fn lay<R: HeatRun>(
+        &self,
+        run: &mut R,
+        i: usize,
+        dwell: f64,
+        pace: f64,
+    ) -> Result<(), ThermalError> {
+        run.deposit_burning(i, dwell, self.pacing.burn(i, pace, None))
+    }
+
+    /// Lay deposits `from..to` at `pace`, the first after `dwell` seconds.
+    fn advance<R: HeatRun>(
+        &self,
+        run: &mut R,
+        from: usize,
+        to: usize,
+        dwell: f64,
+        pace: f64,
+    ) -> Result<(), ThermalError> {
+        for i in from..to {
+            self.lay(run, i, if i == from { dwell } else { 0.0 }, pace)?;
+        }
+        Ok(())
+    }
 }
 
 /// Tries of one revolution's dwell search before it gives up at the longest dwell.
 const MAX_TRIES: usize = 8;
+
+/// The paces tried to slow a revolution down, besides the slowest the window allows.
+const PACES: [f64; 4] = [1.25, 1.5, 2.0, 3.0];
 
 /// The point search copies its run every this many deposits.
 const CHECKPOINT_EVERY: usize = 16;
@@ -49,6 +95,9 @@ const CHECKPOINT_EVERY: usize = 16;
 /// A deposit whose judged points lie on metal this far below the limit is laid without a copy
 /// (the arc warms the metal ahead of it by less than this over one deposit).
 const PREDICT_MARGIN_K: f64 = 50.0;
+
+/// A drop's wait is found to this, s.
+const DROP_WAIT_STEP_S: f64 = 0.5;
 
 /// A revolution and where its dwell goes.
 #[derive(Debug, Clone, Copy)]
@@ -77,15 +126,51 @@ fn revolutions(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<Revolution> {
     revs
 }
 
+/// How the planner closed a closed part, where revolutions get too short for a dwell to act.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Closing {
+    /// No point is laid on metal just laid (an open part), or the closing zone is safe as the
+    /// revolutions before it were planned.
+    NotNeeded,
+    /// From point `from` on, the heat input ramped down: every point at `pace`, the slowest the
+    /// process window allows there.
+    RampDown { from: usize, pace: f64 },
+    /// From point `from` on, every point laid as a drop after a wait until the metal beneath it
+    /// is under the limit (capped at the longest dwell).
+    Drops {
+        from: usize,
+        count: usize,
+        longest_wait_s: f64,
+    },
+}
+
+impl Closing {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Closing::NotNeeded => "not_needed",
+            Closing::RampDown { .. } => "ramp_down",
+            Closing::Drops { .. } => "drops",
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 pub struct DwellPlan {
-    /// Per deposit: dwell before it, s, and why.
-    pub dwell_s: Vec<f64>,
+    /// Per deposit: the dwell before it, its pace, whether it is a drop.
+    pub cooling: Cooling,
+    /// Per deposit, why its dwell or pace was planned.
     pub reason: Vec<Option<Risk>>,
-    /// Points still at risk at the longest dwell.
+    /// Points no remedy keeps safe.
     pub unresolved: Vec<usize>,
     /// Deposits simulated by the search, in whole builds.
     pub cost_builds: f64,
+    pub closing: Closing,
+}
+
+impl DwellPlan {
+    pub fn dwell_s(&self) -> &[f64] {
+        &self.cooling.dwell_s
+    }
 }
 
 /// The first risky point among `points`, with the hottest preheat among them.
@@ -110,14 +195,6 @@ fn check(
         }
     }
     (first, hottest)
-}
-
-/// Lay deposits `from..to`, the first after `dwell` seconds.
-fn advance(run: &mut impl HeatRun, from: usize, to: usize, dwell: f64) -> Result<(), ThermalError> {
-    for i in from..to {
-        run.deposit(i, if i == from { dwell } else { 0.0 })?;
-    }
-    Ok(())
 }
 
 /// `base` cooled for `d` seconds with the steps one `cool(d)` takes (1, 2, 4 … s up to the
@@ -172,13 +249,15 @@ type PointDwells<R> = (R, Vec<PointDwell>, Vec<usize>);
 /// The run after a trial, the revolution's first risky point and its hottest preheat.
 type Trial<R> = (R, Option<(usize, Risk)>, f64);
 
-/// Point dwells over the deposits of `range` from `start`: each deposit is tried without a dwell, and
-/// given the shortest one that keeps the points judged at it safe when it is not.
+/// Point dwells over the deposits of `range` laid at `pace` from `start`: each deposit is tried
+/// without a dwell, and given the shortest one that keeps the points judged at it safe when it is
+/// not.
 fn point_dwells<R: HeatRun>(
     s: &Search,
     judged: &[Vec<usize>],
     start: &R,
     range: std::ops::Range<usize>,
+    pace: f64,
     simulated: &mut f64,
 ) -> Result<PointDwells<R>, ThermalError> {
     let mut x = start.clone();
@@ -207,7 +286,7 @@ fn point_dwells<R: HeatRun>(
         let mut y = cp.clone();
         for j in from..to {
             let d = dwells.iter().find(|p| p.0 == j).map_or(0.0, |p| p.1);
-            y.deposit(j, d)?;
+            s.lay(&mut y, j, d, pace)?;
         }
         Ok::<R, ThermalError>(y)
     };
@@ -220,7 +299,7 @@ fn point_dwells<R: HeatRun>(
             x.support(k) != Support::Deposit || x.temperature_beneath(k) < target - PREDICT_MARGIN_K
         });
         if cool {
-            x.deposit(i, 0.0)?;
+            s.lay(&mut x, i, 0.0, pace)?;
             *simulated += 1.0;
             if risk_at(&x, i).0.is_none() {
                 continue;
@@ -229,7 +308,7 @@ fn point_dwells<R: HeatRun>(
             *simulated += (i - cp_at) as f64;
         }
         let mut trial = x.clone();
-        trial.deposit(i, 0.0)?;
+        s.lay(&mut trial, i, 0.0, pace)?;
         *simulated += 1.0;
         let (risk, hot0) = risk_at(&trial, i);
         let Some(why) = risk else {
@@ -239,7 +318,7 @@ fn point_dwells<R: HeatRun>(
         let mut cache = Vec::new();
         let pass = shortest_dwell(s, 5.0, hot0, |d| {
             let mut t = cooled(&x, &mut cache, d)?;
-            t.deposit(i, 0.0)?;
+            s.lay(&mut t, i, 0.0, pace)?;
             *simulated += 1.0;
             let (r, hot) = risk_at(&t, i);
             Ok((t, r.is_none(), hot))
@@ -251,7 +330,7 @@ fn point_dwells<R: HeatRun>(
             }
             None => {
                 let mut t = x.clone();
-                t.deposit(i, s.dwell.max_dwell_s)?;
+                s.lay(&mut t, i, s.dwell.max_dwell_s, pace)?;
                 dwells.push((i, s.dwell.max_dwell_s, why));
                 unresolved.extend(
                     judged[i]
@@ -266,93 +345,458 @@ fn point_dwells<R: HeatRun>(
     Ok((x, dwells, unresolved))
 }
 
-/// Plan the dwells of the build `deps` (its schedule without dwells) on `run`, a fresh run of
-/// any heat model on it; `lead` is where the model reads preheat.
+/// One way to make a revolution safe, and what it costs.
+struct Remedy<R> {
+    run: R,
+    /// The run before the stretch (the stretch before it as this remedy lays it).
+    before: R,
+    /// The pace its stretch is laid at.
+    pace: f64,
+    dwells: Vec<PointDwell>,
+    unresolved: Vec<usize>,
+    /// Build time it adds, with each arc stop weighed, s.
+    cost_s: f64,
+}
+
+/// Plan the cooling of the build `deps` (its schedule as planned) on `run`, a fresh run of any
+/// heat model on it; `lead` is where the model reads preheat.
 pub fn plan_dwells<R: HeatRun>(
     s: &Search,
     pl: &Plan,
     deps: &[Deposit],
     lead: f64,
-    mut run: R,
+    run: R,
 ) -> Result<DwellPlan, ThermalError> {
     let n = deps.len();
     let revs = revolutions(pl, deps, lead);
+    // The closing zone: from the first revolution with a point laid on metal just laid.
+    let zone = revs
+        .iter()
+        .position(|rev| (rev.first..rev.end).any(|k| run.support(k) == Support::JustLaid));
     let judged = judged_at(deps, lead);
-    let mut plan = DwellPlan {
-        dwell_s: vec![0.0; n],
-        reason: vec![None; n],
-        unresolved: vec![],
-        cost_builds: 0.0,
+    let mut p = Planner {
+        s,
+        deps,
+        judged: &judged,
+        revs,
+        n,
+        plan: DwellPlan {
+            cooling: Cooling::none(n),
+            reason: vec![None; n],
+            unresolved: vec![],
+            cost_builds: 0.0,
+            closing: Closing::NotNeeded,
+        },
+        run,
+        cursor: 0,
+        pace: 1.0,
+        before: None,
+        last_dwell: 0.0,
+        simulated: 0,
     };
-    let mut simulated = 0usize;
-    let w = s.dwell.count_weight_s;
-    let mut last_dwell = 0.0f64;
-    let mut cursor = 0;
-    for (r, rev) in revs.iter().enumerate() {
-        let seg_end = revs.get(r + 1).map_or(n, |x| x.dwell_at).max(rev.dwell_at);
-        if cursor < rev.dwell_at {
-            advance(&mut run, cursor, rev.dwell_at, 0.0)?;
-            simulated += rev.dwell_at - cursor;
+    // The closing zone starts earlier where a revolution near the closing point (within
+    // `closing_zone_mm`) is left with points no dwell keeps safe: the revolution is planned again
+    // from a copy of the search taken before it.
+    let near = super::risk::closing_zone(pl, s.dwell.closing_zone_mm);
+    let mut zone = zone;
+    let until = zone.unwrap_or(p.revs.len());
+    for r in 0..until {
+        let rev = p.revs[r];
+        let copy = near[rev.first..rev.end]
+            .iter()
+            .any(|&z| z)
+            .then(|| p.clone());
+        let left = p.plan.unresolved.len();
+        p.revolution(r)?;
+        if let Some(copy) = copy
+            && p.plan.unresolved.len() > left
+        {
+            p = copy;
+            zone = Some(r);
+            break;
         }
-        let segment = Segment {
+    }
+    if let Some(r) = zone {
+        p.closing(r)?;
+    }
+    p.plan.cost_builds = p.simulated as f64 / n.max(1) as f64;
+    Ok(p.plan)
+}
+
+/// The search's state as it walks the build.
+#[derive(Clone)]
+struct Planner<'a, R> {
+    s: &'a Search<'a>,
+    deps: &'a [Deposit],
+    judged: &'a [Vec<usize>],
+    revs: Vec<Revolution>,
+    n: usize,
+    plan: DwellPlan,
+    /// The run, laid up to `cursor`.
+    run: R,
+    cursor: usize,
+    /// The pace the path is laid at now.
+    pace: f64,
+    /// The run before the last stretch was laid, and that stretch: slowing a revolution down
+    /// lays it again.
+    before: Option<(R, std::ops::Range<usize>)>,
+    last_dwell: f64,
+    simulated: usize,
+}
+
+impl<R: HeatRun> Planner<'_, R> {
+    /// Where revolution r's stretch ends: the next one's dwell point.
+    fn segment_end(&self, r: usize) -> usize {
+        let rev = self.revs[r];
+        self.revs
+            .get(r + 1)
+            .map_or(self.n, |x| x.dwell_at)
+            .max(rev.dwell_at)
+    }
+
+    /// Lay up to `to` at the pace of now.
+    fn catch_up(&mut self, to: usize) -> Result<(), ThermalError> {
+        if self.cursor < to {
+            let from = self.cursor;
+            self.s.advance(&mut self.run, from, to, 0.0, self.pace)?;
+            self.plan.cooling.pace[from..to].fill(self.pace);
+            self.simulated += to - from;
+            self.cursor = to;
+        }
+        Ok(())
+    }
+
+    /// Plan revolution r: laid as planned, or at the pace of the revolution before it, if either
+    /// keeps it safe; else the cheapest remedy that does.
+    fn revolution(&mut self, r: usize) -> Result<(), ThermalError> {
+        let (s, rev) = (self.s, self.revs[r]);
+        let seg_end = self.segment_end(r);
+        self.catch_up(rev.dwell_at)?;
+        let stretch = rev.dwell_at..seg_end;
+        let segment = |pace: f64| Segment {
             s,
-            judged: &judged,
-            rev: *rev,
+            judged: self.judged,
+            rev,
             seg_end,
+            pace,
         };
-        let (x0, risk0, _) = segment.try_dwell(&run, 0.0, &mut simulated)?;
-        let Some((_, why)) = risk0 else {
-            run = x0;
-            cursor = seg_end;
-            continue;
+        // The paces that failed.
+        let mut failed: Vec<f64> = Vec::new();
+        let mut why = None;
+        let mut tried = vec![1.0];
+        if self.pace != 1.0 {
+            tried.push(self.pace);
+        }
+        for k in tried {
+            let (x, risk, _) = segment(k).try_dwell(&self.run, 0.0, &mut self.simulated)?;
+            match risk {
+                None => {
+                    let start = self.run.clone();
+                    return self.keep(stretch, k, x, None, start);
+                }
+                Some((_, w)) => {
+                    why = why.or(Some(w));
+                    failed.push(k);
+                }
+            }
+        }
+        let why = why.expect("a risky trial");
+        let slowest = s.pacing.slowest(stretch.clone());
+        let mut remedies = Vec::new();
+        // Slowing down: the smallest of a few paces up to the slowest that keeps the revolution
+        // safe with the arc on. Safety is not monotone in the pace (slow enough, the arc heats
+        // the metal ahead of it), so the paces are tried in turn, not bisected.
+        for k in PACES
+            .iter()
+            .copied()
+            .filter(|&k| k < slowest)
+            .chain([slowest])
+        {
+            if k <= 1.0 || failed.contains(&k) {
+                continue;
+            }
+            match self.slowed(segment(k))? {
+                Some((x, cost_s, before)) => {
+                    remedies.push(Remedy {
+                        run: x,
+                        before,
+                        pace: k,
+                        dwells: vec![],
+                        unresolved: vec![],
+                        cost_s,
+                    });
+                    break;
+                }
+                None => failed.push(k),
+            }
+        }
+        remedies.push(self.dwells(segment(1.0), why)?);
+        // The cheapest that keeps every point safe, else the one that leaves fewest at risk.
+        let best = remedies
+            .into_iter()
+            .min_by(|a, b| {
+                (a.unresolved.len(), a.cost_s)
+                    .partial_cmp(&(b.unresolved.len(), b.cost_s))
+                    .expect("finite costs")
+            })
+            .expect("a remedy");
+        for &(i, d, why) in &best.dwells {
+            self.plan.cooling.dwell_s[i] = d;
+            self.plan.reason[i] = Some(why);
+        }
+        if let [(i, d, _)] = best.dwells[..]
+            && i == rev.dwell_at
+        {
+            self.last_dwell = d;
+        }
+        self.plan.unresolved.extend(best.unresolved);
+        if best.pace != 1.0
+            && let Some((_, before)) = &self.before
+        {
+            // Slowing down slowed the stretch before this one too.
+            for i in before.clone() {
+                self.plan.cooling.pace[i] = self.plan.cooling.pace[i].max(best.pace);
+            }
+        }
+        self.keep(stretch, best.pace, best.run, Some(why), best.before)
+    }
+
+    /// Revolution r laid at `segment`'s pace, and the stretch before it too (from a copy of the
+    /// run taken before that stretch, with its dwells): the metal a revolution lies on was laid
+    /// in the stretch before, so slowing both lengthens the time between laying a point's
+    /// substrate and reading its preheat, while the power falls with the wire feed. The run and
+    /// the build time it adds, or `None` if a point of either revolution is at risk.
+    fn slowed(&mut self, segment: Segment) -> Result<Option<(R, f64, R)>, ThermalError> {
+        let (s, k) = (self.s, segment.pace);
+        let stretch = segment.rev.dwell_at..segment.seg_end;
+        let mut cost_s = s.pacing.extra_time_s(stretch, 1.0, k);
+        let start = match &self.before {
+            Some((run, before)) => {
+                let mut x = run.clone();
+                for i in before.clone() {
+                    let planned = self.plan.cooling.pace[i];
+                    let pace = planned.max(k);
+                    cost_s += s.pacing.extra_time_s(i..i + 1, planned, pace);
+                    s.lay(&mut x, i, self.plan.cooling.dwell_s[i], pace)?;
+                }
+                self.simulated += before.len();
+                x
+            }
+            None => self.run.clone(),
         };
-        // Dwells inside the revolution, just where they are needed: the least dwell time.
+        let (x, risk, _) = segment.try_dwell(&start, 0.0, &mut self.simulated)?;
+        let before_safe = self.revs[..]
+            .iter()
+            .rev()
+            .find(|rv| rv.end <= segment.rev.first)
+            .is_none_or(|rv| check(s, &x, rv.first..rv.end, s.dwell.margin_k).0.is_none());
+        Ok((risk.is_none() && before_safe).then_some((x, cost_s, start)))
+    }
+
+    /// Keep `run`, the stretch laid at `pace` (up to its first risky point, or whole) from
+    /// `before`, and lay what is left of it.
+    fn keep(
+        &mut self,
+        stretch: std::ops::Range<usize>,
+        pace: f64,
+        run: R,
+        why: Option<Risk>,
+        before: R,
+    ) -> Result<(), ThermalError> {
+        self.before = Some((before, stretch.clone()));
+        if pace != 1.0 {
+            self.plan.reason[stretch.start] = self.plan.reason[stretch.start].or(why);
+        }
+        self.pace = pace;
+        self.plan.cooling.pace[stretch.clone()].fill(pace);
+        self.run = run;
+        // A trial that stopped at its first risky point leaves the stretch unfinished.
+        if self.run.laid() < stretch.end {
+            let from = self.run.laid();
+            self.s
+                .advance(&mut self.run, from, stretch.end, 0.0, self.pace)?;
+            self.simulated += stretch.end - from;
+        }
+        self.cursor = stretch.end;
+        Ok(())
+    }
+
+    /// The dwell remedy of a revolution's stretch at its segment's pace: dwells inside it just
+    /// where they are needed (the least dwell), or one dwell before it (one arc stop), sized only
+    /// when stops carry a weight or the point dwells cannot make it safe.
+    fn dwells(&mut self, segment: Segment, why: Risk) -> Result<Remedy<R>, ThermalError> {
+        let s = self.s;
+        let w = s.dwell.count_weight_s;
+        let (rev, seg_end) = (segment.rev, segment.seg_end);
         let mut point_sim = 0.0;
-        let (xp, point, point_unresolved) =
-            point_dwells(s, &judged, &run, rev.dwell_at..seg_end, &mut point_sim)?;
-        simulated += point_sim as usize;
+        let (xp, point, point_unresolved) = point_dwells(
+            s,
+            self.judged,
+            &self.run,
+            rev.dwell_at..seg_end,
+            segment.pace,
+            &mut point_sim,
+        )?;
+        self.simulated += point_sim as usize;
         let point_cost = point.iter().map(|p| p.1).sum::<f64>() + w * point.len() as f64;
-        // One dwell before the revolution: one arc stop. Sized only when stops carry a weight or
-        // the point dwells cannot make the revolution safe.
         let whole = if w > 0.0 || !point_unresolved.is_empty() {
-            segment.smallest_dwell(&run, last_dwell, &mut simulated)?
+            segment.smallest_dwell(&self.run, self.last_dwell, &mut self.simulated)?
         } else {
             None
         };
-        match whole {
-            Some((d, x)) if d + w < point_cost || !point_unresolved.is_empty() => {
-                plan.dwell_s[rev.dwell_at] = d;
-                plan.reason[rev.dwell_at] = Some(why);
-                last_dwell = d;
-                run = x;
-            }
-            _ => {
-                for &(i, d, why) in &point {
-                    plan.dwell_s[i] = d;
-                    plan.reason[i] = Some(why);
-                }
-                plan.unresolved.extend(point_unresolved);
-                run = xp;
-            }
-        }
-        // A trial that stopped at its first risky point leaves the segment unfinished.
-        if run.laid() < seg_end {
-            let from = run.laid();
-            advance(&mut run, from, seg_end, 0.0)?;
-            simulated += seg_end - from;
-        }
-        cursor = seg_end;
+        Ok(match whole {
+            Some((d, x)) if d + w < point_cost || !point_unresolved.is_empty() => Remedy {
+                run: x,
+                before: self.run.clone(),
+                pace: segment.pace,
+                dwells: vec![(rev.dwell_at, d, why)],
+                unresolved: vec![],
+                cost_s: d + w,
+            },
+            _ => Remedy {
+                run: xp,
+                before: self.run.clone(),
+                pace: segment.pace,
+                dwells: point,
+                unresolved: point_unresolved,
+                cost_s: point_cost,
+            },
+        })
     }
-    plan.cost_builds = simulated as f64 / n.max(1) as f64;
-    Ok(plan)
+
+    /// The points from `first` on that break a criterion, judged in full (none exempt).
+    fn at_risk(&self, first: usize) -> Vec<usize> {
+        (first..self.n)
+            .filter(|&i| judge(self.s.criteria, &self.run.points()[i], 0.0).is_some())
+            .collect()
+    }
+
+    /// Plan the closing zone, from revolution `zone` on: as before if that keeps it safe, else the
+    /// heat input ramped down, else drops.
+    fn closing(&mut self, zone: usize) -> Result<(), ThermalError> {
+        let first = self.revs[zone].first;
+        let start = self.clone();
+        for r in zone..self.revs.len() {
+            self.revolution(r)?;
+        }
+        if self.at_risk(first).is_empty() {
+            self.plan.closing = Closing::NotNeeded;
+            return Ok(());
+        }
+        // The heat input ramped down: the zone at the slowest pace the window allows there.
+        *self = start.clone();
+        self.catch_up(first)?;
+        let pace = self.s.pacing.slowest(first..self.n).max(self.pace);
+        self.pace = pace;
+        self.catch_up(self.n)?;
+        if self.at_risk(first).is_empty() {
+            self.plan.closing = Closing::RampDown { from: first, pace };
+            return Ok(());
+        }
+        // Drops: each after a wait until the ring beneath it is under the limit.
+        *self = start;
+        self.catch_up(first)?;
+        let s = self.s;
+        let mut longest = 0.0f64;
+        let drops = s.pacing.drops(first);
+        for drop in &drops {
+            let (wait, run) = self.drop_wait(drop.clone())?;
+            self.run = run;
+            let parts = drop.clone().map(|i| match i == drop.start {
+                true => DropPart::Strikes {
+                    deposits: drop.len(),
+                },
+                false => DropPart::Continues,
+            });
+            for (i, part) in drop.clone().zip(parts) {
+                self.run
+                    .deposit_burning(i, 0.0, s.pacing.burn(i, 1.0, Some(part)))?;
+                self.plan.cooling.drop[i] = Some(part);
+                self.plan.cooling.pace[i] = 1.0;
+            }
+            self.simulated += drop.len();
+            self.plan.cooling.dwell_s[drop.start] = wait;
+            self.plan.reason[drop.start] = (wait > 0.0).then_some(Risk::Interpass);
+            longest = longest.max(wait);
+            // The drop's Bond number, from the cap its metal makes (Radel et al. 2019, Eq.1).
+            if let Some(b) = s.criteria.bond {
+                let r = s.pacing.drop_cap(drop.clone()).radius;
+                if bond_number(b.density_kg_m3, r, b.surface_tension_n_m) > b.max {
+                    self.plan.unresolved.extend(drop.clone());
+                }
+            }
+        }
+        self.cursor = self.n;
+        let risky = self.at_risk(first);
+        self.plan.unresolved.extend(risky);
+        self.plan.unresolved.sort_unstable();
+        self.plan.unresolved.dedup();
+        self.plan.closing = Closing::Drops {
+            from: first,
+            count: drops.len(),
+            longest_wait_s: longest,
+        };
+        Ok(())
+    }
+
+    /// The shortest wait (to [`DROP_WAIT_STEP_S`], at most the longest dwell) after which the ring
+    /// beneath `drop` (the metal its points lie on, laid before it) is under the target, and
+    /// the run after it: cooled as one `cool(wait)` cools, so that a fresh run of the plan reads
+    /// what the search read.
+    fn drop_wait(&self, drop: std::ops::Range<usize>) -> Result<(f64, R), ThermalError> {
+        let (s, target) = (self.s, self.s.target_k());
+        // What the drop would read if it struck now: its hottest.
+        let ring = |run: &R| {
+            strike_readings(self.deps, drop.start, drop.len(), |k| {
+                run.temperature_beneath(k)
+            })
+            .into_iter()
+            .map(|r| r.1)
+            .fold(f64::NEG_INFINITY, f64::max)
+        };
+        if ring(&self.run) <= target {
+            return Ok((0.0, self.run.clone()));
+        }
+        let max = s.dwell.max_dwell_s;
+        let mut cache = Vec::new();
+        let (mut fail, mut pass) = (0.0, None);
+        let mut d = DROP_WAIT_STEP_S;
+        while pass.is_none() {
+            let x = cooled(&self.run, &mut cache, d)?;
+            if ring(&x) <= target {
+                pass = Some((d, x));
+            } else if d >= max {
+                return Ok((max, x));
+            } else {
+                fail = d;
+                d = (2.0 * d).min(max);
+            }
+        }
+        let (mut hi, mut best) = pass.expect("a pass");
+        while hi - fail > DROP_WAIT_STEP_S {
+            let mid = (0.5 * (fail + hi) / DROP_WAIT_STEP_S).round() * DROP_WAIT_STEP_S;
+            if mid <= fail || mid >= hi {
+                break;
+            }
+            let x = cooled(&self.run, &mut cache, mid)?;
+            if ring(&x) <= target {
+                (hi, best) = (mid, x);
+            } else {
+                fail = mid;
+            }
+        }
+        Ok((hi, best))
+    }
 }
 
-/// One revolution's stretch of deposits, from its dwell point to the next one's.
+/// One revolution's stretch of deposits, from its dwell point to the next one's, laid at a pace.
+#[derive(Clone, Copy)]
 struct Segment<'a> {
     s: &'a Search<'a>,
     judged: &'a [Vec<usize>],
     rev: Revolution,
     seg_end: usize,
+    pace: f64,
 }
 
 impl Segment<'_> {
@@ -367,7 +811,12 @@ impl Segment<'_> {
         let (s, rev) = (self.s, self.rev);
         let mut x = start.clone();
         for i in rev.dwell_at..self.seg_end {
-            x.deposit(i, if i == rev.dwell_at { d } else { 0.0 })?;
+            s.lay(
+                &mut x,
+                i,
+                if i == rev.dwell_at { d } else { 0.0 },
+                self.pace,
+            )?;
             *simulated += 1;
             let risky = self.judged[i].iter().any(|&k| {
                 k >= rev.first
@@ -573,7 +1022,9 @@ pub fn wait_until_cool(
     let mut dwell = vec![0.0; deps.len()];
     let mut cursor = 0;
     for (r, rev) in revs.iter().enumerate().skip(1) {
-        advance(&mut run, cursor, rev.dwell_at, 0.0)?;
+        for i in cursor..rev.dwell_at {
+            run.deposit(i, 0.0)?;
+        }
         cursor = rev.dwell_at;
         let prev = revs[r - 1];
         let hot = |run: &thermal::ModelRun| {
@@ -592,9 +1043,8 @@ pub fn wait_until_cool(
             .get(r + 1)
             .map_or(deps.len(), |x| x.dwell_at)
             .max(cursor);
-        if end > cursor {
-            run.deposit(cursor, 0.0)?;
-            advance(&mut run, cursor + 1, end, 0.0)?;
+        for i in cursor..end {
+            run.deposit(i, 0.0)?;
         }
         cursor = end;
     }

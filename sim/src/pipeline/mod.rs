@@ -27,13 +27,11 @@
 //! let build = Build::new(plan(&part, &planning).unwrap(), params);
 //! let before = build.simulate(&[], 0).unwrap();
 //! let dwells = build.plan_dwells().unwrap();
-//! let after = build.simulate(&dwells.dwell_s, 0).unwrap();
+//! let after = build.simulate_cooled(&dwells.cooling, 0, vec![]).unwrap();
 //! assert!(before.first_risk(&build.criteria).is_some());
-//! // Every point is safe but those laid on metal just laid at the closing point, which no dwell
-//! // can help (a closing strategy's work).
-//! let (risks, can) = (after.risks(&build.criteria), after.dwell_can_act());
-//! assert!(risks.iter().zip(&can).all(|(r, &can)| r.is_none() || !can));
-//! println!("{:.0} s of dwell", dwells.dwell_s.iter().sum::<f64>());
+//! // Every point is safe, the closing point's too: a closing strategy laid it.
+//! assert_eq!(after.first_risk(&build.criteria), None);
+//! println!("{:.0} s of dwell, closed by {}", dwells.cooling.total_dwell_s(), dwells.closing.name());
 //! ```
 
 pub mod arc_stops;
@@ -41,6 +39,7 @@ pub mod beads;
 pub mod calibrate;
 pub mod deposition;
 pub mod dwell;
+pub mod pace;
 pub mod params;
 pub mod replay;
 pub mod risk;
@@ -48,7 +47,9 @@ pub mod risk;
 pub use params::Params;
 
 use beads::Beads;
+use deposition::Cooling;
 use dwell::{DwellPlan, Search};
+use pace::Pacing;
 use params::DwellSettings;
 use planner::mesh::Part;
 use planner::plan::{Plan, PlanParams};
@@ -106,7 +107,10 @@ pub struct Build {
 pub struct Simulation {
     /// The schedule with its dwells.
     pub deposits: Vec<Deposit>,
+    /// Per point: the dwell before it (s), its pace, the part of a drop it was laid as.
     pub dwell_s: Vec<f64>,
+    pub pace: Vec<f64>,
+    pub drop: Vec<Option<thermal::schedule::DropPart>>,
     pub result: RunResult,
     /// "fe" or "voxel".
     pub model: &'static str,
@@ -117,7 +121,7 @@ pub struct Simulation {
 impl Build {
     pub fn new(plan: Plan, params: Params) -> Build {
         let beads = beads::beads(&params.process, &params.material, &plan);
-        let deposits = deposition::schedule(&params.process, &plan, &beads, &[]);
+        let deposits = deposition::schedule(&params.process, &plan, &beads, &Cooling::default());
         let criteria = Criteria::new(&params);
         Build {
             plan,
@@ -148,20 +152,21 @@ impl Build {
     /// Heat the build with `dwell_s[i]` before point i, keeping the field at up to `frames`
     /// times (0: none; fewer on long paths, [`frame_times`]).
     pub fn simulate(&self, dwell_s: &[f64], frames: usize) -> Result<Simulation, ThermalError> {
-        self.simulate_traced(dwell_s, frames, Vec::new())
+        self.simulate_cooled(&Cooling::dwells(dwell_s), frames, Vec::new())
     }
 
-    /// [`Build::simulate`], keeping also the temperature of the points in `traces` at every
-    /// step (`RunResult::traces`). Both keep the hottest laid metal at every step
+    /// Heat the build cooled as `cooling` says (dwells, paces, drops), keeping the field at up
+    /// to `frames` times and the temperature of the points in `traces` at every step
+    /// (`RunResult::traces`). Both keep the hottest laid metal at every step
     /// (`RunResult::hottest`): one run's few bytes a step, where the dwell planner's cloned
     /// checkpoints go without.
-    pub fn simulate_traced(
+    pub fn simulate_cooled(
         &self,
-        dwell_s: &[f64],
+        cooling: &Cooling,
         frames: usize,
         traces: Vec<usize>,
     ) -> Result<Simulation, ThermalError> {
-        let deposits = deposition::schedule(&self.params.process, &self.plan, &self.beads, dwell_s);
+        let deposits = deposition::schedule(&self.params.process, &self.plan, &self.beads, cooling);
         let build_s = deposits.last().map_or(0.0, |d| d.time);
         let times = match frames {
             0 => Vec::new(),
@@ -172,10 +177,11 @@ impl Build {
         model.set_trace_hottest(true);
         let clock = Instant::now();
         let result = model.simulate(&deposits)?;
+        let n = deposits.len();
         Ok(Simulation {
-            dwell_s: (0..deposits.len())
-                .map(|i| dwell_s.get(i).copied().unwrap_or(0.0))
-                .collect(),
+            dwell_s: (0..n).map(|i| cooling.dwell(i)).collect(),
+            pace: (0..n).map(|i| cooling.pace(i)).collect(),
+            drop: (0..n).map(|i| cooling.drop_part(i)).collect(),
             deposits,
             result,
             model: model.name(),
@@ -183,21 +189,32 @@ impl Build {
         })
     }
 
-    /// What a dwell search judges by and aims for.
-    pub fn search(&self) -> Search<'_> {
+    /// How each point burns at another pace or as a drop.
+    pub fn pacing(&self) -> Pacing<'_> {
+        Pacing::new(&self.params.process, &self.plan, &self.beads)
+    }
+
+    /// Point i's machine settings as `sim` laid it (at its pace).
+    pub fn bead_as_laid(&self, sim: &Simulation, i: usize) -> beads::Bead {
+        self.beads.beads[i].paced(sim.pace[i], &self.params.process)
+    }
+
+    /// What a cooling search judges by, aims for and may do.
+    pub fn search<'a>(&'a self, pacing: &'a Pacing<'a>) -> Search<'a> {
         Search {
             criteria: &self.criteria,
             dwell: &self.params.dwell,
             ambient_k: self.params.thermal.ambient_k,
+            pacing,
         }
     }
 
-    /// The cooling dwells that keep every point safe, searched on the scenario's heat model.
+    /// The cooling that keeps every point safe, searched on the scenario's heat model.
     pub fn plan_dwells(&self) -> Result<DwellPlan, ThermalError> {
         self.plan_dwells_weighted(self.params.dwell.count_weight_s)
     }
 
-    /// [`Build::plan_dwells`] with an arc stop weighed as `weight_s` seconds of dwell.
+    /// [`Build::plan_dwells`] with an arc stop weighed as `weight_s` seconds of build time.
     pub fn plan_dwells_weighted(&self, weight_s: f64) -> Result<DwellPlan, ThermalError> {
         let model = self.heat_model(&self.deposits, Vec::new());
         let run = model.start(&self.deposits)?;
@@ -205,9 +222,10 @@ impl Build {
             count_weight_s: weight_s,
             ..self.params.dwell.clone()
         };
+        let pacing = self.pacing();
         let search = Search {
             dwell: &dwell,
-            ..self.search()
+            ..self.search(&pacing)
         };
         dwell::plan_dwells(&search, &self.plan, &self.deposits, model.lead(), run)
     }
@@ -231,6 +249,8 @@ impl Build {
                     r.preheat_max_k = r.preheat_max_k.max(pre);
                     r.preheat_mean_k += pre;
                     r.dwell_s += dwell;
+                    r.pace_max = r.pace_max.max(sim.pace[i]);
+                    r.drops += usize::from(strikes(sim.drop[i]));
                 }
                 _ => rows.push(LayerRow {
                     layer: q.layer,
@@ -239,6 +259,8 @@ impl Build {
                     preheat_max_k: pre,
                     preheat_mean_k: pre,
                     dwell_s: dwell,
+                    pace_max: sim.pace[i],
+                    drops: usize::from(strikes(sim.drop[i])),
                 }),
             }
         }
@@ -321,6 +343,14 @@ pub struct LayerRow {
     pub preheat_max_k: f64,
     pub preheat_mean_k: f64,
     pub dwell_s: f64,
+    /// The slowest pace of its points (1: as planned).
+    pub pace_max: f64,
+    /// Drops struck in it.
+    pub drops: usize,
+}
+
+fn strikes(d: Option<thermal::schedule::DropPart>) -> bool {
+    matches!(d, Some(thermal::schedule::DropPart::Strikes { .. }))
 }
 
 /// Most field values kept over a run, frames × path points (16 MB of f32 per sink).

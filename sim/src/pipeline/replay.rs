@@ -54,6 +54,7 @@ pub fn deposits(path: &[Waypoint], l: &Laying) -> Vec<Deposit> {
                 axis: [0.0, 0.0, 1.0],
                 support: None,
                 start: (k == 1 && !continues).then_some(from),
+                drop: None,
             });
         }
     }

@@ -262,6 +262,7 @@ impl Sink for McapSink {
                     &json!({
                         "t_s": t, "i": i, "layer": p.layer, "preheat_c": p.preheat_c,
                         "interpass_max_c": scene.interpass_c, "power_w": p.power_w, "dwell_s": p.dwell_s,
+                        "pace": p.pace, "drop": p.in_drop,
                     }),
                 )
             }
@@ -580,6 +581,8 @@ pub fn schema(name: &str) -> Value {
                 ("interpass_max_c", number()),
                 ("power_w", number()),
                 ("dwell_s", number()),
+                ("pace", number()),
+                ("drop", boolean()),
             ],
         ),
         "waamtwin.FieldSummary" => object(

@@ -519,7 +519,14 @@ pub fn pareto_plot(
             };
             EmptyElement::at((t.arc_stops as f64, t.build_time_s / 60.0))
                 + Circle::new((0, 0), 5, c.filled())
-                + Text::new(format!("{:.0} s/stop", t.weight_s), (7, -14), (FONT, 12))
+                + Text::new(
+                    match t.slowed_points {
+                        0 => format!("{:.0} s/stop", t.weight_s),
+                        k => format!("{:.0} s/stop, {k} points slowed", t.weight_s),
+                    },
+                    (7, -14),
+                    (FONT, 12),
+                )
         }))?;
         if let Some(b) = budget {
             let red = RGBColor(210, 60, 60);

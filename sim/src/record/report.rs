@@ -4,7 +4,7 @@
 //! the plot sink, whose PNGs it inlines.
 
 use super::foxglove::base64;
-use super::{Moment, Scene, Sink};
+use super::{Moment, PointRecord, Scene, Sink};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
 use std::fmt::Write;
@@ -143,8 +143,37 @@ fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
         evidence.push(format!(
             "Revolutions whose hottest preheat passes the limit: {runs}. Near a closing point the \
              metal beneath a point can be laid inside the torch's footprint when its preheat is \
-             read (the arc's own heat): no dwell can help there, and no closing strategy is built \
-             yet (dwell.json counts such points; see docs/PHYSICS.md)."
+             read (the arc's own heat): no dwell can help there, only a closing strategy \
+             (dwell.json `closing_strategy`; see docs/PHYSICS.md)."
+        ));
+    }
+    let drops: Vec<&PointRecord> = scene.points.iter().filter(|p| p.strikes_drop).collect();
+    if let Some(first) = drops.first() {
+        evidence.push(format!(
+            "The closing zone, from layer {}, is laid as {} drops, each struck after a wait until \
+             the ring beneath it is under the limit (the longest {:.1} s): the closing strategy of \
+             skeleton arc AM.",
+            first.layer,
+            drops.len(),
+            drops.iter().map(|p| p.dwell_s).fold(0.0, f64::max)
+        ));
+    }
+    let slowed: Vec<&PointRecord> = scene
+        .points
+        .iter()
+        .filter(|p| p.pace != 1.0 && !p.in_drop)
+        .collect();
+    if !slowed.is_empty() {
+        let layers: std::collections::BTreeSet<usize> = slowed.iter().map(|p| p.layer).collect();
+        evidence.push(format!(
+            "{} revolutions are slowed down with the arc on, up to {:.2} times (wire feed and \
+             travel speed together, the deposit as planned), the least power {:.0} W.",
+            layers.len(),
+            slowed.iter().map(|p| p.pace).fold(1.0, f64::max),
+            slowed
+                .iter()
+                .map(|p| p.power_w)
+                .fold(f64::INFINITY, f64::min)
         ));
     }
     (safe, headline, evidence)
@@ -153,7 +182,13 @@ fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
 fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) -> String {
     let (safe, headline, evidence) = verdict(scene);
     let dwell_total: f64 = scene.points.iter().map(|p| p.dwell_s).sum();
-    let stops = scene.points.iter().filter(|p| p.dwell_s > 0.0).count();
+    // Every arc start after the first: each dwell and each drop.
+    let stops = scene
+        .points
+        .iter()
+        .skip(1)
+        .filter(|p| p.dwell_s > 0.0 || p.strikes_drop)
+        .count();
     let revolutions = scene.layers.len();
     let mut h = String::new();
     let _ = write!(
@@ -183,7 +218,7 @@ fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) 
         ("revolutions (layers)", revolutions.to_string()),
         ("path points", scene.points.len().to_string()),
         (
-            "arc stops (dwells; one arc start and one stop for the spiral besides)",
+            "arc stops (dwells and drops; one arc start and one stop for the spiral besides)",
             stops.to_string(),
         ),
         ("dwell in all", format!("{dwell_total:.0} s")),

@@ -6,6 +6,7 @@ use crate::scenario::Scenario;
 use planner::mesh::TriMesh;
 use planner::plan::Plan;
 use thermal::ZERO_CELSIUS_K as C;
+use thermal::schedule::DropPart;
 
 /// Per path point, in deposition order.
 #[derive(Debug, Clone, PartialEq)]
@@ -19,9 +20,16 @@ pub struct PointRecord {
     pub generator: usize,
     pub deposit_mm: f64,
     pub preheat_c: f64,
+    /// As laid (at its pace), W.
     pub power_w: f64,
     /// The pause before it, s.
     pub dwell_s: f64,
+    /// Wire feed and travel speed divided by this (1: as planned).
+    pub pace: f64,
+    /// The arc strikes a drop here (the closing strategy of skeleton arc AM).
+    pub strikes_drop: bool,
+    /// Laid as part of a drop.
+    pub in_drop: bool,
     pub risk: Option<&'static str>,
 }
 
@@ -154,8 +162,11 @@ impl Scene {
                 generator: q.generator,
                 deposit_mm: q.deposit_mm,
                 preheat_c: sim.result.points[i].preheat - C,
-                power_w: b.beads.beads[i].power_w,
+                power_w: b.bead_as_laid(sim, i).power_w,
                 dwell_s: sim.dwell_s[i],
+                pace: sim.pace[i],
+                strikes_drop: matches!(sim.drop[i], Some(DropPart::Strikes { .. })),
+                in_drop: sim.drop[i].is_some(),
                 risk: risks[i].map(|k| k.as_str()),
             })
             .collect();
@@ -306,13 +317,33 @@ fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec
         });
     }
     for (i, p) in points.iter().enumerate() {
-        if p.dwell_s > 0.0 {
+        if p.strikes_drop {
+            ev.push(Event {
+                t_s: p.t_s - p.dwell_s,
+                level: Level::Info,
+                text: format!(
+                    "drop struck at point {i} (layer {}) after a wait of {:.1} s: the closing zone laid drop by drop",
+                    p.layer, p.dwell_s
+                ),
+            });
+        } else if p.dwell_s > 0.0 {
             ev.push(Event {
                 t_s: p.t_s - p.dwell_s,
                 level: Level::Info,
                 text: format!(
                     "dwell inserted: {:.1} s before point {i} (layer {}): arc stop and restart",
                     p.dwell_s, p.layer
+                ),
+            });
+        }
+        let before = if i == 0 { 1.0 } else { points[i - 1].pace };
+        if p.pace != before && !p.in_drop {
+            ev.push(Event {
+                t_s: p.t_s,
+                level: Level::Info,
+                text: format!(
+                    "pace {:.2} from point {i} (layer {}): wire feed and travel speed divided by it, {:.0} W",
+                    p.pace, p.layer, p.power_w
                 ),
             });
         }

@@ -134,7 +134,7 @@ pub fn fields_h5(scene: &Scene) -> Result<Vec<u8>> {
     let column = |f: &dyn Fn(&super::PointRecord) -> f64| -> Vec<f64> {
         scene.points.iter().map(f).collect()
     };
-    let columns: [(&str, &str, Vec<f64>); 10] = [
+    let columns: [(&str, &str, Vec<f64>); 12] = [
         ("x_mm", "mm", column(&|p| p.position_mm[0])),
         ("y_mm", "mm", column(&|p| p.position_mm[1])),
         ("z_mm", "mm", column(&|p| p.position_mm[2])),
@@ -143,6 +143,8 @@ pub fn fields_h5(scene: &Scene) -> Result<Vec<u8>> {
         ("preheat_c", "degC", column(&|p| p.preheat_c)),
         ("power_w", "W", column(&|p| p.power_w)),
         ("dwell_s", "s", column(&|p| p.dwell_s)),
+        ("pace", "1", column(&|p| p.pace)),
+        ("drop", "1", column(&|p| f64::from(u8::from(p.in_drop)))),
         ("layer", "1", column(&|p| p.layer as f64)),
         ("generator", "1", column(&|p| p.generator as f64)),
     ];

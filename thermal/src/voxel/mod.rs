@@ -15,8 +15,8 @@ use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Ledger, SIGMA, Surroundings};
 use crate::run::{
-    Cells, CoolingSteps, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult, Snapshot,
-    Support, Trace, replay,
+    Burn, Cells, CoolingSteps, Drops, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult,
+    Snapshot, Support, Trace, replay,
 };
 use crate::schedule::{Deposit, read_fractions, segment_start, validate};
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
@@ -740,15 +740,16 @@ impl VoxelModel {
         }
     }
 
-    /// Goldak source of `heat` joules over the arc time of deposit i, on the active voxels
+    /// Goldak source of the burn's heat over its arc time, for deposit i, on the active voxels
     /// around the top of its settled metal, oriented along its segment.
-    fn source(&self, deps: &[Deposit], i: usize, heat: f64, out: &mut Vec<(u32, f32)>) {
+    fn source(&self, deps: &[Deposit], i: usize, burn: Burn, out: &mut Vec<(u32, f32)>) {
         out.clear();
         let d = &deps[i];
         let prev = segment_start(deps, i);
         // The pool sits on the metal, `sink` below the path point where the metal settled.
         let pool = sub(d.position, scale(d.axis, self.sink[i]));
-        if d.arc_time <= 0.0 || heat <= 0.0 {
+        let heat = burn.heat;
+        if burn.arc_time <= 0.0 || heat <= 0.0 {
             return;
         }
         let seg = sub(d.position, prev);
@@ -770,7 +771,7 @@ impl VoxelModel {
             HeatSource::DoubleEllipsoid => self.ellipsoid(d, pool, tangent, across),
         };
         let total: f64 = w.iter().map(|x| x.1).sum();
-        let power = heat / d.arc_time;
+        let power = heat / burn.arc_time;
         out.extend(w.iter().map(|&(v, wt)| (v, (power * wt / total) as f32)));
     }
 
@@ -947,6 +948,7 @@ pub struct VoxelRun {
     /// Per probe, its voxel once one lies within a cell of it.
     probe_voxels: Vec<Option<u32>>,
     underpowered: usize,
+    drops: Drops,
     now: f64,
     laid: usize,
     /// The next preheat to read in the current deposit's list.
@@ -1008,6 +1010,7 @@ impl VoxelRun {
                 .collect(),
             probe_voxels: vec![None; model.settings.probes.len()],
             underpowered: 0,
+            drops: Drops::default(),
             laid: 0,
             next_probe: 0,
             source: Vec::new(),
@@ -1060,10 +1063,9 @@ impl VoxelRun {
         }
     }
 
-    /// The preheats read during deposit i's arc once `elapsed` of it has passed (those not
+    /// The preheats read during deposit i's arc of `arc` seconds once `elapsed` of it has passed (those not
     /// read yet: `next_probe` counts them in `probes_at[i]`, which is in arc order).
-    fn read(&mut self, i: usize, elapsed: f64) {
-        let arc = self.deps[i].arc_time;
+    fn read(&mut self, i: usize, arc: f64, elapsed: f64) {
         let probes = &self.probes_at[i];
         while let Some(&(k, f)) = probes.get(self.next_probe)
             && f * arc <= elapsed + 1e-9
@@ -1103,26 +1105,43 @@ impl VoxelRun {
 }
 
 impl HeatRun for VoxelRun {
-    fn deposit(&mut self, i: usize, dwell: f64) -> Result<(), ThermalError> {
+    fn deposit_burning(
+        &mut self,
+        i: usize,
+        dwell: f64,
+        burn: Option<Burn>,
+    ) -> Result<(), ThermalError> {
+        let burn = burn.unwrap_or_else(|| Burn::of(&self.deps[i]));
+        burn.check(i)?;
         self.cool(dwell)?;
+        let (model, deps) = (&self.model, &self.deps);
+        self.drops.before(deps, i, burn.drop, |k| {
+            model.mean_t(&model.beneath(deps, k))
+        });
         self.next_probe = 0;
-        self.read(i, 0.0);
-        let d = self.deps[i];
+        self.read(i, burn.arc_time, 0.0);
         let before = self.model.ledger.deposited;
         self.model.lay(&self.deps, i);
         // The arc's heat less what the new metal took.
-        let rest = d.heat - (self.model.ledger.deposited - before);
+        let rest = burn.heat - (self.model.ledger.deposited - before);
         self.underpowered += usize::from(rest < 0.0);
         let mut source = std::mem::take(&mut self.source);
-        self.model.source(&self.deps, i, rest.max(0.0), &mut source);
+        let heat = Burn {
+            heat: rest.max(0.0),
+            ..burn
+        };
+        self.model.source(&self.deps, i, heat, &mut source);
         self.source = source;
-        let (mut left, mut elapsed) = (d.arc_time, 0.0);
+        let (mut left, mut elapsed) = (burn.arc_time, 0.0);
         while left > 1e-12 {
             let dt = self.dt_max.min(left);
             self.advance(dt, true);
             left -= dt;
             elapsed += dt;
-            self.read(i, elapsed);
+            self.read(i, burn.arc_time, elapsed);
+        }
+        if let Some(t) = self.drops.after(i, burn.drop) {
+            self.points[i].preheat = t;
         }
         (self.points[i].pool_length, self.points[i].pool_radius) = self.model.pool(&self.deps, i);
         self.laid = i + 1;
@@ -1153,6 +1172,8 @@ impl HeatRun for VoxelRun {
         let d = &self.deps[i];
         match (d.support, self.read_at[i]) {
             (None, _) => Support::Plate,
+            // A drop is read as its arc strikes, after the wait before it.
+            (Some(_), _) if self.drops.contains(i) => Support::Deposit,
             (Some(s), Some(r))
                 if s >= r
                     || norm(sub(self.deps[s].position, self.deps[r].position))
@@ -1415,7 +1436,11 @@ mod tests {
         }
         let mut out = Vec::new();
         let (d, heat) = (&deps[100], 500.0);
-        m.source(&deps, 100, heat, &mut out);
+        let burn = Burn {
+            heat,
+            ..Burn::of(d)
+        };
+        m.source(&deps, 100, burn, &mut out);
         assert!(out.len() > 3, "{} voxels", out.len());
         let total: f64 = out.iter().map(|x| x.1 as f64).sum();
         assert!((total - heat / d.arc_time).abs() < 1e-3 * total, "{total}");
