@@ -247,3 +247,22 @@ pub fn plate_centre(deposits: &[Deposit]) -> [f64; 2] {
         [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Cooling;
+    use thermal::schedule::DropPart;
+
+    /// Every arc start after the first is an arc stop: a dwell, or a drop struck (even with no
+    /// wait); a drop going on is not.
+    #[test]
+    fn arc_stops_are_dwells_and_drops_struck() {
+        let mut c = Cooling::none(6);
+        c.dwell_s[0] = 3.0; // before the first arc: no stop
+        c.dwell_s[2] = 10.0;
+        c.drop[4] = Some(DropPart::Strikes { deposits: 2 });
+        c.drop[5] = Some(DropPart::Continues);
+        assert_eq!(c.arc_stops(), 2);
+        assert_eq!(c.drops(), 1);
+    }
+}

@@ -114,3 +114,90 @@ impl<'a> Pacing<'a> {
         self.beads.beads[i].paced(pace, self.process).power_w
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::Build;
+    use planner::mesh::{LowerLoop, Part};
+    use planner::shapes::Shape;
+    use thermal::schedule::DropPart;
+
+    /// A closed dome R 20 mm planned with CTPP under `process` (a `[process]` table's lines).
+    fn dome(process: &str) -> Build {
+        let text = format!("[part]\nshape = \"disk\"\nradius_mm = 1.0\n[process]\n{process}\n");
+        let s = crate::scenario::Scenario::parse(&text, "test", ".".as_ref()).unwrap();
+        let mut planning = s.plan_params();
+        planning.n_points = 40;
+        let mesh = Shape::Hemisphere { radius_mm: 20.0 }.mesh(2.5);
+        let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
+        Build::new(super::super::plan(&part, &planning).unwrap(), s.params())
+    }
+
+    /// At the planned pace a point burns as the schedule says (the run takes the schedule's own
+    /// numbers), and a drop at the planned pace burns its segments' arc time with their heat.
+    #[test]
+    fn the_planned_pace_is_the_schedule() {
+        let b = dome("");
+        let pacing = b.pacing();
+        for (i, d) in b.deposits().iter().enumerate() {
+            assert_eq!(pacing.burn(i, 1.0, None), None);
+            let drop = pacing.burn(i, 1.0, Some(DropPart::Continues)).unwrap();
+            assert_eq!(
+                (drop.arc_time, drop.heat),
+                (d.arc_time, d.heat),
+                "point {i}"
+            );
+        }
+    }
+
+    /// k times slower burns k times longer; the synergic line's power falls with the wire feed,
+    /// a fixed power does not (its heat grows k-fold); the pace is bounded by the window.
+    #[test]
+    fn slowing_down_burns_longer_at_the_power_of_the_slower_wire_feed() {
+        for (process, lower) in [("power_model = \"synergic\"", true), ("", false)] {
+            let b = dome(process);
+            let pacing = b.pacing();
+            for (i, d) in b.deposits().iter().enumerate().skip(1).step_by(97) {
+                let slow = pacing.burn(i, 2.0, None).unwrap();
+                assert!((slow.arc_time - 2.0 * d.arc_time).abs() < 1e-12 * d.arc_time);
+                let (p0, p1) = (d.heat / d.arc_time, slow.heat / slow.arc_time);
+                match lower {
+                    true => assert!(p1 < 0.8 * p0, "point {i}: {p1} W vs {p0} W"),
+                    false => assert!((p1 - p0).abs() < 1e-9 * p0),
+                }
+                assert!((pacing.extra_time_s(i..i + 1, 1.0, 2.0) - d.arc_time).abs() < 1e-12);
+            }
+            // 10 mm/s over 2 mm/s, 1.5 m/min over the planned wire feed: at most 5.
+            let k = pacing.slowest(0..b.deposits().len());
+            assert!(k > 1.0 && k <= 5.0 + 1e-9, "{k}");
+        }
+    }
+
+    /// The closing zone cut into drops: contiguous, each at least a bead width along the path,
+    /// the last at least half one; each drop a cap whose radius is of the bead's half width.
+    #[test]
+    fn drops_are_a_bead_width_long() {
+        let b = dome("");
+        let pacing = b.pacing();
+        let n = b.deposits().len();
+        let first = n - 200;
+        let drops = pacing.drops(first);
+        assert_eq!(drops.first().unwrap().start, first);
+        assert_eq!(drops.last().unwrap().end, n);
+        assert!(drops.windows(2).all(|w| w[0].end == w[1].start));
+        let w = b.params.process.bead_width_m;
+        for (k, d) in drops.iter().enumerate() {
+            let length: f64 = d.clone().map(|i| pacing.segment_m[i]).sum();
+            let last = k + 1 == drops.len();
+            assert!(
+                length >= if last { w / 2.0 } else { w },
+                "drop {k}: {length} m"
+            );
+            let cap = pacing.drop_cap(d.clone());
+            assert!(
+                cap.radius > 0.3 * w && cap.radius < 2.0 * w,
+                "drop {k}: {cap:?}"
+            );
+        }
+    }
+}

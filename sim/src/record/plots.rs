@@ -378,12 +378,20 @@ fn dwells(area: &Area, scene: &Scene) -> Drawn {
     let n = scene.layers.len().max(1) as f64;
     let top = scene.layers.iter().map(|l| l.dwell_s).fold(0.0, f64::max) * 1.1;
     let total: f64 = scene.points.iter().map(|p| p.dwell_s).sum();
-    let count = scene.points.iter().filter(|p| p.dwell_s > 0.0).count();
+    // Every arc start after the first: each dwell and each drop (a drop's wait is its dwell).
+    let count = scene
+        .points
+        .iter()
+        .skip(1)
+        .filter(|p| p.dwell_s > 0.0 || p.strikes_drop)
+        .count();
+    let drops = scene.points.iter().filter(|p| p.strikes_drop).count();
+    let caption = match drops {
+        0 => format!("dwell schedule: {count} arc stops, {total:.0} s in all"),
+        k => format!("dwell schedule: {count} arc stops ({k} drops), {total:.0} s in all"),
+    };
     let mut chart = ChartBuilder::on(area)
-        .caption(
-            format!("dwell schedule: {count} arc stops, {total:.0} s in all"),
-            (FONT, 24),
-        )
+        .caption(caption, (FONT, 24))
         .margin(12)
         .x_label_area_size(44)
         .y_label_area_size(64)
@@ -391,7 +399,7 @@ fn dwells(area: &Area, scene: &Scene) -> Drawn {
     chart
         .configure_mesh()
         .x_desc("revolution (layer)")
-        .y_desc("dwell in the revolution, s")
+        .y_desc("dwell in the revolution (drops' waits too), s")
         .x_label_formatter(&whole)
         .y_label_formatter(&whole)
         .label_style((FONT, 15))

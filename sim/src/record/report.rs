@@ -230,10 +230,17 @@ fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) 
         ("interpass limit", format!("{:.0} °C", scene.interpass_c)),
     ];
     let closing = scene.closed.then(|| {
-        (
-            "closing strategy",
-            "none: the spiral runs on to the closing point, cooled by the dwells above".to_string(),
-        )
+        let drops: Vec<&PointRecord> = scene.points.iter().filter(|p| p.strikes_drop).collect();
+        let text = match drops.first() {
+            Some(first) => format!(
+                "drops: {} from layer {}, each struck after a wait until the ring beneath it is \
+                 under the limit",
+                drops.len(),
+                first.layer
+            ),
+            None => "none: the spiral runs on to the closing point".to_string(),
+        };
+        ("closing strategy", text)
     });
     for (k, v) in rows.into_iter().chain(closing) {
         let _ = writeln!(h, "<tr><th>{}</th><td>{}</td></tr>", escape(k), escape(&v));
