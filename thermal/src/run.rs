@@ -200,6 +200,13 @@ impl Burn {
         }
     }
 
+    /// `burn`, or deposit `d`'s own (`None`), checked for deposit i.
+    pub fn or_scheduled(burn: Option<Burn>, d: &Deposit, i: usize) -> Result<Burn, ThermalError> {
+        let burn = burn.unwrap_or_else(|| Burn::of(d));
+        burn.check(i)?;
+        Ok(burn)
+    }
+
     /// Checks it for deposit i: a finite arc time and heat, neither negative.
     pub fn check(&self, i: usize) -> Result<(), ThermalError> {
         let fine = |x: f64| x.is_finite() && x >= 0.0;

@@ -518,8 +518,7 @@ impl HeatRun for WallRun {
         dwell: f64,
         burn: Option<Burn>,
     ) -> Result<(), ThermalError> {
-        let burn = burn.unwrap_or_else(|| Burn::of(&self.deps[i]));
-        burn.check(i)?;
+        let burn = Burn::or_scheduled(burn, &self.deps[i], i)?;
         self.cool(dwell)?;
         let (t, below) = (&self.model.network.t, &self.below);
         self.drops.before(&self.deps, i, burn.drop, |k| t[below[k]]);

@@ -411,7 +411,7 @@ pub fn plan_dwells<R: HeatRun>(
         if let Some(copy) = copy
             && p.plan.unresolved.len() > left
         {
-            p = copy;
+            p.restore(copy);
             zone = Some(r);
             break;
         }
@@ -445,6 +445,13 @@ struct Planner<'a, R> {
 }
 
 impl<R: HeatRun> Planner<'_, R> {
+    /// Go back to `copy`, keeping the count of what was simulated since.
+    fn restore(&mut self, copy: Self) {
+        let simulated = self.simulated;
+        *self = copy;
+        self.simulated = simulated;
+    }
+
     /// Where revolution r's stretch ends: the next one's dwell point.
     fn segment_end(&self, r: usize) -> usize {
         let rev = self.revs[r];
@@ -684,7 +691,7 @@ impl<R: HeatRun> Planner<'_, R> {
             return Ok(());
         }
         // The heat input ramped down: the zone at the slowest pace the window allows there.
-        *self = start.clone();
+        self.restore(start.clone());
         self.catch_up(first)?;
         let pace = self.s.pacing.slowest(first..self.n).max(self.pace);
         self.pace = pace;
@@ -694,7 +701,7 @@ impl<R: HeatRun> Planner<'_, R> {
             return Ok(());
         }
         // Drops: each after a wait until the ring beneath it is under the limit.
-        *self = start;
+        self.restore(start);
         self.catch_up(first)?;
         let s = self.s;
         let mut longest = 0.0f64;

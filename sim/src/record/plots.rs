@@ -378,13 +378,8 @@ fn dwells(area: &Area, scene: &Scene) -> Drawn {
     let n = scene.layers.len().max(1) as f64;
     let top = scene.layers.iter().map(|l| l.dwell_s).fold(0.0, f64::max) * 1.1;
     let total: f64 = scene.points.iter().map(|p| p.dwell_s).sum();
-    // Every arc start after the first: each dwell and each drop (a drop's wait is its dwell).
-    let count = scene
-        .points
-        .iter()
-        .skip(1)
-        .filter(|p| p.dwell_s > 0.0 || p.strikes_drop)
-        .count();
+    // A drop's wait is its dwell.
+    let count = scene.arc_stops();
     let drops = scene.points.iter().filter(|p| p.strikes_drop).count();
     let caption = match drops {
         0 => format!("dwell schedule: {count} arc stops, {total:.0} s in all"),

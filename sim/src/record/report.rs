@@ -182,13 +182,7 @@ fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
 fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) -> String {
     let (safe, headline, evidence) = verdict(scene);
     let dwell_total: f64 = scene.points.iter().map(|p| p.dwell_s).sum();
-    // Every arc start after the first: each dwell and each drop.
-    let stops = scene
-        .points
-        .iter()
-        .skip(1)
-        .filter(|p| p.dwell_s > 0.0 || p.strikes_drop)
-        .count();
+    let stops = scene.arc_stops();
     let revolutions = scene.layers.len();
     let mut h = String::new();
     let _ = write!(

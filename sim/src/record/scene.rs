@@ -146,6 +146,15 @@ pub struct Run<'a> {
 }
 
 impl Scene {
+    /// Every arc start after the first: each dwell and each drop struck.
+    pub fn arc_stops(&self) -> usize {
+        self.points
+            .iter()
+            .skip(1)
+            .filter(|p| p.dwell_s > 0.0 || p.strikes_drop)
+            .count()
+    }
+
     pub fn build(r: Run<'_>) -> Scene {
         let (s, b, sim) = (r.s, r.build, r.sim);
         let pl = &b.plan;

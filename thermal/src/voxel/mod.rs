@@ -1111,8 +1111,7 @@ impl HeatRun for VoxelRun {
         dwell: f64,
         burn: Option<Burn>,
     ) -> Result<(), ThermalError> {
-        let burn = burn.unwrap_or_else(|| Burn::of(&self.deps[i]));
-        burn.check(i)?;
+        let burn = Burn::or_scheduled(burn, &self.deps[i], i)?;
         self.cool(dwell)?;
         let (model, deps) = (&self.model, &self.deps);
         self.drops.before(deps, i, burn.drop, |k| {
