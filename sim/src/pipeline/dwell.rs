@@ -3,28 +3,27 @@
 //! `count_weight_s` seconds; and the baselines it is judged against.
 //!
 //! The search walks the build once, revolution by revolution, from checkpoints of the thermal run
-//! (a clone of its state). A revolution is simulated as the one before it was laid; if it breaks
-//! a criterion, remedies are sized and the cheapest kept:
+//! (a clone of its state). A revolution is simulated as planned, then at the pace of the one
+//! before it; if both break a criterion, remedies are sized and the cheapest kept:
 //!
-//! - slowing down ([`super::pace`]): the revolution's stretch laid at the smallest of a few paces
-//!   that keeps it safe, the arc kept on; its cost is the longer arc time (each revolution is
-//!   tried as planned and at the pace of the one before it first);
+//! - slowing down ([`super::pace`]), where the power falls with the wire feed: the revolution and
+//!   the stretch before it (whose metal it lies on) laid again at the smallest of a few paces
+//!   that keeps both safe, the arc kept on; its cost is the longer arc time;
 //! - one dwell before the revolution's first preheat reading (the deposit during whose arc the
 //!   torch is `lead_mm` upstream of its first point), so that the whole revolution is laid on
 //!   metal that has cooled: the smallest such dwell, from a few simulations of that revolution;
 //! - dwells inside the revolution, each just before the deposit whose arc would break a
-//!   criterion, as short as keeps it safe;
-//! - where stops cost and slowing alone does not do it, those dwells at the pace that kept the
-//!   revolution safe longest.
+//!   criterion, as short as keeps it safe.
 //!
 //! Near a closing point revolutions get shorter than the torch's reach: a point is laid on metal
 //! laid while its own preheat was read, and no dwell can come between the two. From the first
 //! revolution with such a point, or the first within `closing_zone_mm` of the closing point that
-//! dwells leave at risk (the closing zone), the planner tries, in order: going on as
-//! before (the zone is safe under every criterion), the heat input ramped down (the zone at the
-//! slowest pace the window allows, the least power), and drops (every point laid standing after
-//! a wait until the metal beneath it is under the limit, as skeleton arc AM lays its nodes). It
-//! says which ([`Closing`]), and which points none keeps safe.
+//! dwells leave at risk (the closing zone), the planner tries, in order: going on as before (the
+//! zone is safe under every criterion), the heat input ramped down (the zone at the
+//! slowest pace the window allows, the least power, where the power falls with the wire feed),
+//! and drops (every point laid standing after a wait until the metal beneath it is under the
+//! limit, as skeleton arc AM lays its nodes). It says which ([`Closing`]), and which points none
+//! keeps safe.
 
 use super::deposition::Cooling;
 use super::pace::Pacing;
@@ -512,14 +511,16 @@ impl<R: HeatRun> Planner<'_, R> {
         let mut remedies = Vec::new();
         // Slowing down: the smallest of a few paces up to the slowest that keeps the revolution
         // safe with the arc on. Safety is not monotone in the pace (slow enough, the arc heats
-        // the metal ahead of it), so the paces are tried in turn, not bisected.
+        // the metal ahead of it), so the paces are tried in turn, not bisected. Only where the
+        // power falls with the wire feed: at a fixed power slowing down puts more heat into a
+        // revolution at the same rate, and measured it never made one safe (docs/PHYSICS.md).
         for k in PACES
             .iter()
             .copied()
             .filter(|&k| k < slowest)
             .chain([slowest])
         {
-            if k <= 1.0 || failed.contains(&k) {
+            if k <= 1.0 || failed.contains(&k) || !s.pacing.cools(stretch.clone(), k) {
                 continue;
             }
             match self.slowed(segment(k))? {
@@ -690,15 +691,18 @@ impl<R: HeatRun> Planner<'_, R> {
             self.plan.closing = Closing::NotNeeded;
             return Ok(());
         }
-        // The heat input ramped down: the zone at the slowest pace the window allows there.
-        self.restore(start.clone());
-        self.catch_up(first)?;
+        // The heat input ramped down: the zone at the slowest pace the window allows there,
+        // where that lowers the power (not at a fixed power).
         let pace = self.s.pacing.slowest(first..self.n).max(self.pace);
-        self.pace = pace;
-        self.catch_up(self.n)?;
-        if self.at_risk(first).is_empty() {
-            self.plan.closing = Closing::RampDown { from: first, pace };
-            return Ok(());
+        if self.s.pacing.cools(first..self.n, pace) {
+            self.restore(start.clone());
+            self.catch_up(first)?;
+            self.pace = pace;
+            self.catch_up(self.n)?;
+            if self.at_risk(first).is_empty() {
+                self.plan.closing = Closing::RampDown { from: first, pace };
+                return Ok(());
+            }
         }
         // Drops: each after a wait until the ring beneath it is under the limit.
         self.restore(start);

@@ -109,6 +109,15 @@ impl<'a> Pacing<'a> {
         out
     }
 
+    /// Whether laying `range` at `pace` puts less heat in per second than as planned at some point
+    /// of it: the power model's power falls with the wire feed (a synergic line; a fixed power
+    /// does not).
+    pub fn cools(&self, range: Range<usize>, pace: f64) -> bool {
+        range
+            .into_iter()
+            .any(|i| self.power_w(i, pace) < self.power_w(i, 1.0))
+    }
+
     /// The power point i burns with at `pace`, W.
     pub fn power_w(&self, i: usize, pace: f64) -> f64 {
         self.beads.beads[i].paced(pace, self.process).power_w
