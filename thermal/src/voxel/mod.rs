@@ -1063,8 +1063,8 @@ impl VoxelRun {
         }
     }
 
-    /// The preheats read during deposit i's arc of `arc` seconds once `elapsed` of it has passed (those not
-    /// read yet: `next_probe` counts them in `probes_at[i]`, which is in arc order).
+    /// The preheats read during deposit i's arc of `arc` seconds once `elapsed` of it has passed
+    /// (those not read yet: `next_probe` counts them in `probes_at[i]`, which is in arc order).
     fn read(&mut self, i: usize, arc: f64, elapsed: f64) {
         let probes = &self.probes_at[i];
         while let Some(&(k, f)) = probes.get(self.next_probe)
