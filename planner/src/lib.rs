@@ -12,6 +12,7 @@ pub use nalgebra;
 pub mod closing_point;
 pub mod collision;
 pub mod deviation;
+pub mod frame;
 pub mod generators;
 pub mod geodesic;
 pub mod geometry;

@@ -99,6 +99,13 @@ pub enum Command {
         #[arg(short = 'o', long = "out")]
         out: PathBuf,
     },
+    /// The machine program of a planned DIR (its path.csv): program.json, program.mod (ABB
+    /// RAPID) or program.src (KUKA KRL), one linear move per path point with the full tool frame.
+    Export {
+        dir: PathBuf,
+        #[arg(long, value_enum)]
+        format: crate::commands::export::Format,
+    },
     /// A built-in closed-part scenario, end to end.
     Demo {
         #[arg(short = 'o', long = "out", default_value = "out/demo")]

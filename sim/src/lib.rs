@@ -119,6 +119,10 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             );
             Ok(())
         }
+        Command::Export { dir, format } => {
+            println!("{}", commands::export::run(&dir, format)?);
+            Ok(())
+        }
         Command::Demo { out } => {
             commands::demo::demo(&out)?;
             println!("demo written to {}", out.display());

@@ -5,6 +5,7 @@ mod cli;
 mod ctpp;
 mod determinism;
 mod dwell;
+mod export;
 mod inspect;
 mod outputs;
 mod replay;

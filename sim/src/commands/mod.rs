@@ -3,6 +3,7 @@
 pub mod calibrate;
 pub mod demo;
 pub mod dwell;
+pub mod export;
 pub mod geodesic;
 pub mod inspect;
 pub mod plan;

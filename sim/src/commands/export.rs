@@ -1,0 +1,247 @@
+//! `waamtwin export DIR --format json|rapid|krl`: the machine program of a planned DIR, from its
+//! path.csv (a `plan`, `simulate` or `dwell` run): one linear move per path point with the full
+//! tool frame ([`planner::frame`]), its wire feed and travel speed, the arc struck once at the
+//! start, put out and struck again around each dwell and each drop the plan made, and put out at
+//! the end. Written beside path.csv as program.json, program.mod (ABB RAPID) or program.src
+//! (KUKA KRL).
+
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
+use planner::frame::{Frame, frames};
+use planner::nalgebra::{Point3, Vector3};
+use serde_json::json;
+use std::fmt::Write;
+use std::path::Path;
+
+/// A program format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Documented JSON: per move the position, quaternion, tool axis, wire feed, travel speed,
+    /// whether the arc is struck before it and the dwell before it.
+    Json,
+    /// ABB RAPID: MoveL with quaternions and speed data, WaitTime, SetDO/SetAO.
+    Rapid,
+    /// KUKA KRL: LIN with A, B, C, $VEL.CP, WAIT SEC, $OUT/$ANOUT.
+    Krl,
+}
+
+/// One linear move: the frame at the path point and how it is reached.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Move {
+    pub frame: Frame,
+    pub wfs_m_min: f64,
+    pub travel_mm_s: f64,
+    /// The arc is put out and struck again before this move (after a dwell, or for a drop); the
+    /// first move strikes the arc.
+    pub strikes: bool,
+    /// The wait with the arc off before it, s.
+    pub dwell_s: f64,
+}
+
+pub fn run(dir: &Path, format: Format) -> Result<String> {
+    let file = dir.join("path.csv");
+    let text = std::fs::read_to_string(&file).map_err(|e| {
+        Error::input(format!(
+            "{}: {e}; expected a planned run's path.csv",
+            file.display()
+        ))
+    })?;
+    let moves = moves(&text, &file.display().to_string())?;
+    let (name, body) = match format {
+        Format::Json => ("program.json", json_program(&moves)),
+        Format::Rapid => ("program.mod", rapid(&moves)),
+        Format::Krl => ("program.src", krl(&moves)),
+    };
+    write_atomic(&dir.join(name), body.as_bytes())?;
+    let strikes = moves.iter().filter(|m| m.strikes).count();
+    Ok(format!(
+        "{}: {} moves, the arc struck {strikes} times",
+        dir.join(name).display(),
+        moves.len()
+    ))
+}
+
+/// The moves of a path.csv; `file` names it in messages.
+pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
+    let mut lines = text.lines().enumerate();
+    let header: Vec<&str> = lines
+        .next()
+        .map(|(_, h)| h.split(',').map(str::trim).collect())
+        .unwrap_or_default();
+    let col = |name: &str| {
+        header.iter().position(|h| *h == name).ok_or_else(|| {
+            Error::input(format!(
+                "{file} line 1: no column {name}; expected path.csv's header"
+            ))
+        })
+    };
+    let names = [
+        "x",
+        "y",
+        "z",
+        "tool_x",
+        "tool_y",
+        "tool_z",
+        "wfs_m_min",
+        "travel_mm_s",
+        "dwell_s",
+    ];
+    let at: Vec<usize> = names.iter().map(|n| col(n)).collect::<Result<_>>()?;
+    let drop = header.iter().position(|h| *h == "drop");
+    let (mut points, mut tools, mut rows) = (Vec::new(), Vec::new(), Vec::new());
+    for (k, line) in lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let number = |c: usize, name: &str| -> Result<f64> {
+            f.get(c)
+                .and_then(|v| v.trim().parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    Error::input(format!(
+                        "{file} line {}: {name} {:?}; expected a number",
+                        k + 1,
+                        f.get(c).copied().unwrap_or("")
+                    ))
+                })
+        };
+        let v: Vec<f64> = at
+            .iter()
+            .zip(names)
+            .map(|(&c, n)| number(c, n))
+            .collect::<Result<_>>()?;
+        let tool = Vector3::new(v[3], v[4], v[5]);
+        if (tool.norm() - 1.0).abs() > 1e-3 {
+            return Err(Error::input(format!(
+                "{file} line {}: tool axis of length {}; expected a unit vector",
+                k + 1,
+                tool.norm()
+            )));
+        }
+        if v[7] <= 0.0 || v[6] < 0.0 || v[8] < 0.0 {
+            return Err(Error::input(format!(
+                "{file} line {}: travel {} mm/s, wire feed {} m/min, dwell {} s; expected a positive travel speed and neither negative",
+                k + 1,
+                v[7],
+                v[6],
+                v[8]
+            )));
+        }
+        let strike = match drop {
+            Some(c) => number(c, "drop")? == 1.0,
+            None => false,
+        };
+        points.push(Point3::new(v[0], v[1], v[2]));
+        tools.push(tool);
+        rows.push((v[6], v[7], v[8], strike));
+    }
+    if points.is_empty() {
+        return Err(Error::input(format!(
+            "{file}: no path points; expected one row per point"
+        )));
+    }
+    Ok(frames(&points, &tools)
+        .into_iter()
+        .zip(rows)
+        .enumerate()
+        .map(|(i, (frame, (wfs, travel, dwell, strike)))| Move {
+            frame,
+            wfs_m_min: wfs,
+            travel_mm_s: travel,
+            strikes: i == 0 || dwell > 0.0 || strike,
+            dwell_s: dwell,
+        })
+        .collect())
+}
+
+fn json_program(moves: &[Move]) -> String {
+    let m: Vec<_> = moves
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let p = m.frame.position;
+            json!({"i": i, "position_mm": [p.x, p.y, p.z], "quaternion_wxyz": m.frame.quaternion(),
+                "tool_axis": m.frame.tool().as_slice(), "wfs_m_min": m.wfs_m_min,
+                "travel_mm_s": m.travel_mm_s, "arc_strikes_before": m.strikes, "dwell_before_s": m.dwell_s})
+        })
+        .collect();
+    let doc = json!({
+        "format": "waamtwin program",
+        "version": 1,
+        "frame": "tool z from the torch to the deposit, x along the travel, y = z × x; quaternion (w, x, y, z)",
+        "arc_strikes": moves.iter().filter(|m| m.strikes).count(),
+        "moves": m,
+    });
+    serde_json::to_string_pretty(&doc).unwrap_or_default()
+}
+
+/// RAPID: the arc as digital output doArc, the wire feed (m/min) as analogue output aoWireFeed;
+/// zone z0 so that the torch runs on through the points (a stop at each would pile metal).
+fn rapid(moves: &[Move]) -> String {
+    let mut s = String::from(
+        "MODULE WaamPath\n  ! waamtwin: one MoveL per path point; tool z from the torch to the deposit.\n  PROC main()\n",
+    );
+    let mut wfs = f64::NAN;
+    for (i, m) in moves.iter().enumerate() {
+        if m.strikes {
+            if i > 0 {
+                let _ = writeln!(s, "    SetDO doArc, 0;");
+            }
+            if m.dwell_s > 0.0 {
+                let _ = writeln!(s, "    WaitTime {:.3};", m.dwell_s);
+            }
+        }
+        if m.wfs_m_min != wfs {
+            wfs = m.wfs_m_min;
+            let _ = writeln!(s, "    SetAO aoWireFeed, {wfs:.6};");
+        }
+        if m.strikes {
+            let _ = writeln!(s, "    SetDO doArc, 1;");
+        }
+        let (p, q) = (m.frame.position, m.frame.quaternion());
+        let _ = writeln!(
+            s,
+            "    MoveL [[{:.6},{:.6},{:.6}],[{:.9},{:.9},{:.9},{:.9}],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]], [{:.6},500,5000,1000], z0, tWaam;",
+            p.x, p.y, p.z, q[0], q[1], q[2], q[3], m.travel_mm_s
+        );
+    }
+    s.push_str("    SetDO doArc, 0;\n  ENDPROC\nENDMODULE\n");
+    s
+}
+
+/// KRL: the arc as $OUT[1], the wire feed (m/min) as $ANOUT[1] over 10 m/min full scale;
+/// C_DIS so that the torch runs on through the points.
+fn krl(moves: &[Move]) -> String {
+    let mut s = String::from(
+        "DEF WaamPath()\n; waamtwin: one LIN per path point; tool z from the torch to the deposit.\n",
+    );
+    for (i, m) in moves.iter().enumerate() {
+        if m.strikes {
+            if i > 0 {
+                s.push_str("$OUT[1] = FALSE\n");
+            }
+            if m.dwell_s > 0.0 {
+                let _ = writeln!(s, "WAIT SEC {:.3}", m.dwell_s);
+            }
+        }
+        let _ = writeln!(s, "$ANOUT[1] = {:.6}", m.wfs_m_min / 10.0);
+        let _ = writeln!(s, "$VEL.CP = {:.6}", m.travel_mm_s * 1e-3);
+        if m.strikes {
+            s.push_str("$OUT[1] = TRUE\n");
+        }
+        let (p, [a, b, c]) = (m.frame.position, m.frame.abc());
+        let _ = writeln!(
+            s,
+            "LIN {{X {:.6}, Y {:.6}, Z {:.6}, A {:.9}, B {:.9}, C {:.9}}} C_DIS",
+            p.x,
+            p.y,
+            p.z,
+            a.to_degrees(),
+            b.to_degrees(),
+            c.to_degrees()
+        );
+    }
+    s.push_str("$OUT[1] = FALSE\nEND\n");
+    s
+}

@@ -1,0 +1,133 @@
+//! `waamtwin export`: the machine programs of a dwelled dome, parsed back: one move per path
+//! point at its position (1e-6 mm) and tool frame (1e-6 rad), the arc struck once at the start
+//! and once after each arc stop the plan made.
+
+use crate::{read_csv, waamtwin};
+use planner::frame::{Frame, frames};
+use planner::nalgebra::{Point3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+
+/// The frames path.csv gives, and the plan's arc stops.
+fn planned(out: &std::path::Path) -> (Vec<Frame>, usize) {
+    let (h, rows) = read_csv(&out.join("path.csv"));
+    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
+    let v = |r: &Vec<String>, n: &str| r[col(n)].parse::<f64>().unwrap();
+    let points: Vec<Point3<f64>> = rows
+        .iter()
+        .map(|r| Point3::new(v(r, "x"), v(r, "y"), v(r, "z")))
+        .collect();
+    let tools: Vec<Vector3<f64>> = rows
+        .iter()
+        .map(|r| Vector3::new(v(r, "tool_x"), v(r, "tool_y"), v(r, "tool_z")))
+        .collect();
+    let d: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("dwell.json")).unwrap()).unwrap();
+    (
+        frames(&points, &tools),
+        d["arc_stops"].as_u64().unwrap() as usize,
+    )
+}
+
+/// The numbers between the first `open` after `key` and its `close`.
+fn numbers(line: &str, key: &str) -> Vec<f64> {
+    let rest = &line[line.find(key).unwrap() + key.len()..];
+    rest.split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'E'))
+        .filter(|t| !t.is_empty() && *t != "E")
+        .map(|t| t.parse().unwrap())
+        .collect()
+}
+
+fn close(f: &Frame, position: [f64; 3], rotation: &Rotation3<f64>, what: &str) {
+    let p = f.position;
+    let d = (Vector3::new(position[0], position[1], position[2]) - p.coords).norm();
+    assert!(d < 1e-6, "{what}: {d} mm off");
+    let angle = (rotation.matrix() - f.rotation.matrix()).norm();
+    assert!(angle < 1e-6, "{what}: {angle} rad off");
+}
+
+#[test]
+fn programs_parse_back_to_the_path() {
+    let out = crate::run_scenario(
+        "export_dome",
+        "dwell",
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 20.0\nedge_mm = 2.5\n[planner]\nn_points = 40\n\
+         [thermal]\nplate_mm = [80.0, 80.0, 8.0]\n[dwell]\ninterpass_max_c = 250.0\n\
+         [output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
+    );
+    let (expected, stops) = planned(&out);
+    assert!(stops > 1);
+    for format in ["json", "rapid", "krl"] {
+        let o = waamtwin(&["export", out.to_str().unwrap(), "--format", format]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("program.json")).unwrap()).unwrap();
+    let moves = j["moves"].as_array().unwrap();
+    assert_eq!(moves.len(), expected.len());
+    assert_eq!(j["arc_strikes"].as_u64().unwrap() as usize, 1 + stops);
+    for (m, f) in moves.iter().zip(&expected) {
+        let p: Vec<f64> = m["position_mm"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        let q: Vec<f64> = m["quaternion_wxyz"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        let r = UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]));
+        close(f, [p[0], p[1], p[2]], &r.to_rotation_matrix(), "json");
+    }
+
+    let rapid = std::fs::read_to_string(out.join("program.mod")).unwrap();
+    let moves: Vec<&str> = rapid
+        .lines()
+        .filter(|l| l.trim_start().starts_with("MoveL"))
+        .collect();
+    assert_eq!(moves.len(), expected.len());
+    for (l, f) in moves.iter().zip(&expected) {
+        let v = numbers(l, "MoveL");
+        let r = UnitQuaternion::from_quaternion(Quaternion::new(v[3], v[4], v[5], v[6]));
+        close(f, [v[0], v[1], v[2]], &r.to_rotation_matrix(), "rapid");
+    }
+    let on = rapid.matches("SetDO doArc, 1;").count();
+    let off = rapid.matches("SetDO doArc, 0;").count();
+    assert_eq!(
+        (on, off),
+        (1 + stops, 1 + stops),
+        "one strike and one end per arc"
+    );
+    assert!(rapid.matches("WaitTime").count() <= stops);
+
+    let krl = std::fs::read_to_string(out.join("program.src")).unwrap();
+    let moves: Vec<&str> = krl.lines().filter(|l| l.starts_with("LIN")).collect();
+    assert_eq!(moves.len(), expected.len());
+    for (l, f) in moves.iter().zip(&expected) {
+        let v = numbers(l, "LIN");
+        let [a, b, c] = [v[3], v[4], v[5]].map(f64::to_radians);
+        let r = Rotation3::from_euler_angles(c, b, a);
+        close(f, [v[0], v[1], v[2]], &r, "krl");
+    }
+    assert_eq!(krl.matches("$OUT[1] = TRUE").count(), 1 + stops);
+    assert_eq!(krl.matches("$OUT[1] = FALSE").count(), 1 + stops);
+}
+
+/// A path.csv that is not one: exit 2 naming the file and line, and no program written.
+#[test]
+fn a_broken_path_is_refused() {
+    let dir = crate::scratch("export_broken");
+    std::fs::write(
+        dir.join("path.csv"),
+        "i,x,y,z,tool_x,tool_y,tool_z,layer,generator,deposit_mm,wfs_m_min,travel_mm_s,t_s,dwell_s\n\
+         0,1,2,3,0,0,1,0,0,2,6,10,0.5,0\n1,1,2,x,0,0,1,0,0,2,6,10,1.0,0\n",
+    )
+    .unwrap();
+    let o = waamtwin(&["export", dir.to_str().unwrap(), "--format", "rapid"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("path.csv line 3") && e.contains("\"x\""), "{e}");
+    assert!(!dir.join("program.mod").exists());
+}
