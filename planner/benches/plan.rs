@@ -22,6 +22,8 @@ fn main() {
             radius_mm: 10.0,
             standoff_mm: 12.0,
             length_mm: 80.0,
+            max_rotation_deg: 30.0,
+            rotation_rate_deg_mm: 2.0,
         },
     };
     let cases = [

@@ -1,9 +1,12 @@
-//! Nozzle collision detection (CTPP §2.4): at each path point the nozzle is a cylinder of radius
+//! Nozzle collisions (CTPP §2.4): at each path point the nozzle is a cylinder of radius
 //! R_nozzle on the tool axis, from the contact-tip standoff to its length; it collides when
-//! metal already deposited (an earlier path point) lies inside it. Resolution (rotating the tool
-//! about t) is not done here: every detected collision is reported unresolved.
+//! metal already deposited (an earlier path point) lies inside it. A collision is resolved by
+//! rotating the tool about the direction of travel t (the bead keeps its build direction; the
+//! torch leans sideways) by the smallest angle that frees it, up to `max_rotation_deg`; the
+//! rotation is ramped in and out along the path at `rotation_rate_deg_mm` at most, so that the
+//! robot's wrist turns no faster; what is still hit after that is reported unresolved.
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Point3, Rotation3, Unit, Vector3};
 use std::collections::HashMap;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -12,62 +15,188 @@ pub struct Nozzle {
     /// Distance from the deposit to the nozzle tip along the tool axis.
     pub standoff_mm: f64,
     pub length_mm: f64,
+    /// Largest rotation of the tool about the direction of travel, degrees (0: none).
+    pub max_rotation_deg: f64,
+    /// Fastest change of that rotation along the path, degrees per mm.
+    pub rotation_rate_deg_mm: f64,
 }
 
-/// Indices of the path points whose nozzle contains an earlier point.
-pub fn detect(points: &[Point3<f64>], tools: &[Vector3<f64>], nozzle: &Nozzle) -> Vec<usize> {
-    let cell = nozzle.radius_mm.max(1.0);
-    let key =
-        |p: &Point3<f64>| -> [i64; 3] { std::array::from_fn(|k| (p[k] / cell).floor() as i64) };
-    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    let mut hits = Vec::new();
-    let steps = (nozzle.length_mm / cell).ceil() as usize + 1;
-    for (i, (p, b)) in points.iter().zip(tools).enumerate() {
-        let mut hit = false;
-        'axis: for s in 0..=steps {
+/// Collisions found and what was done with them.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Collisions {
+    /// Path points whose nozzle, on the build direction, meets metal already deposited.
+    pub detected: Vec<usize>,
+    /// Those still hit with the rotated tools.
+    pub unresolved: Vec<usize>,
+    /// The largest rotation applied, degrees.
+    pub max_rotation_deg: f64,
+}
+
+/// The deposited points so far, on a grid of cells a nozzle radius wide.
+struct Deposited<'a> {
+    points: &'a [Point3<f64>],
+    cell: f64,
+    grid: HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl<'a> Deposited<'a> {
+    fn new(points: &'a [Point3<f64>], nozzle: &Nozzle) -> Self {
+        Deposited {
+            points,
+            cell: nozzle.radius_mm.max(1.0),
+            grid: HashMap::new(),
+        }
+    }
+
+    fn key(&self, p: &Point3<f64>) -> [i64; 3] {
+        std::array::from_fn(|k| (p[k] / self.cell).floor() as i64)
+    }
+
+    fn add(&mut self, i: usize) {
+        let k = self.key(&self.points[i]);
+        self.grid.entry(k).or_default().push(i as u32);
+    }
+
+    /// Whether the nozzle at `p` on the unit axis `b` contains a deposited point.
+    fn hits(&self, p: &Point3<f64>, b: &Vector3<f64>, nozzle: &Nozzle) -> bool {
+        let steps = (nozzle.length_mm / self.cell).ceil() as usize + 1;
+        for s in 0..=steps {
             let a = nozzle.standoff_mm + nozzle.length_mm * s as f64 / steps as f64;
-            let c = key(&(p + b * a));
+            let c = self.key(&(p + b * a));
             for dx in -1..=1 {
                 for dy in -1..=1 {
                     for dz in -1..=1 {
-                        for &j in grid
-                            .get(&[c[0] + dx, c[1] + dy, c[2] + dz])
-                            .into_iter()
-                            .flatten()
-                        {
-                            let q = points[j as usize] - p;
+                        let cell = self.grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]);
+                        for &j in cell.into_iter().flatten() {
+                            let q = self.points[j as usize] - p;
                             let along = q.dot(b);
                             if along >= nozzle.standoff_mm
                                 && along <= nozzle.standoff_mm + nozzle.length_mm
                                 && (q - b * along).norm() < nozzle.radius_mm
                             {
-                                hit = true;
-                                break 'axis;
+                                return true;
                             }
                         }
                     }
                 }
             }
         }
-        if hit {
+        false
+    }
+}
+
+/// Indices of the path points whose nozzle contains an earlier point.
+pub fn detect(points: &[Point3<f64>], tools: &[Vector3<f64>], nozzle: &Nozzle) -> Vec<usize> {
+    let mut laid = Deposited::new(points, nozzle);
+    let mut hits = Vec::new();
+    for (i, (p, b)) in points.iter().zip(tools).enumerate() {
+        if laid.hits(p, b, nozzle) {
             hits.push(i);
         }
-        grid.entry(key(p)).or_default().push(i as u32);
+        laid.add(i);
     }
     hits
+}
+
+/// The rotation step tried, degrees.
+const STEP_DEG: f64 = 1.0;
+
+/// Resolve the collisions of the path `points` with build directions `builds`: the tools (the
+/// build directions rotated about the direction of travel where a collision asks), and what was
+/// found and left.
+pub fn resolve(
+    points: &[Point3<f64>],
+    builds: &[Vector3<f64>],
+    nozzle: &Nozzle,
+) -> (Vec<Vector3<f64>>, Collisions) {
+    let n = points.len();
+    // The axis of the turn: the direction of travel square to the build direction.
+    let travel: Vec<Unit<Vector3<f64>>> = (0..n)
+        .map(|i| {
+            let d = crate::frame::travel(points, i);
+            let b = builds[i];
+            Unit::try_new(d - b * d.dot(&b), 1e-9).unwrap_or(Vector3::x_axis())
+        })
+        .collect();
+    let turned =
+        |i: usize, deg: f64| Rotation3::from_axis_angle(&travel[i], deg.to_radians()) * builds[i];
+    // The smallest rotation that frees each colliding point, against what is laid before it.
+    let mut laid = Deposited::new(points, nozzle);
+    let mut needed: Vec<(usize, f64)> = Vec::new();
+    let mut detected = Vec::new();
+    for i in 0..n {
+        if laid.hits(&points[i], &builds[i], nozzle) {
+            detected.push(i);
+            // Towards the vertical first (up, away from the part below), then the other way.
+            let up = if travel[i].cross(&builds[i]).z >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            let steps = (nozzle.max_rotation_deg / STEP_DEG).floor() as usize;
+            let free = (1..=steps)
+                .flat_map(|k| [up * k as f64 * STEP_DEG, -up * k as f64 * STEP_DEG])
+                .find(|&deg| !laid.hits(&points[i], &turned(i, deg), nozzle));
+            if let Some(deg) = free {
+                needed.push((i, deg));
+            }
+        }
+        laid.add(i);
+    }
+    // Ramped in and out along the path: at each point the largest of the needed rotations less
+    // the rate times the path length to them.
+    let mut s = vec![0.0; n];
+    for i in 1..n {
+        s[i] = s[i - 1] + (points[i] - points[i - 1]).norm();
+    }
+    let rate = nozzle.rotation_rate_deg_mm.max(1e-9);
+    let mut angle = vec![0.0f64; n];
+    for &(c, deg) in &needed {
+        let reach = deg.abs() / rate;
+        let lo = s.partition_point(|&x| x < s[c] - reach);
+        let hi = s.partition_point(|&x| x <= s[c] + reach);
+        for j in lo..hi {
+            let a = deg.abs() - rate * (s[j] - s[c]).abs();
+            if a > angle[j].abs() {
+                angle[j] = a.copysign(deg);
+            }
+        }
+    }
+    let tools: Vec<Vector3<f64>> = (0..n)
+        .map(|i| match angle[i] {
+            0.0 => builds[i],
+            a => turned(i, a),
+        })
+        .collect();
+    let unresolved = detect(points, &tools, nozzle);
+    let max_rotation_deg = angle.iter().map(|a| a.abs()).fold(0.0, f64::max);
+    (
+        tools,
+        Collisions {
+            detected,
+            unresolved,
+            max_rotation_deg,
+        },
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_wall_over_the_torch_is_a_collision() {
-        let n = Nozzle {
+    fn nozzle() -> Nozzle {
+        Nozzle {
             radius_mm: 10.0,
             standoff_mm: 12.0,
             length_mm: 80.0,
-        };
+            max_rotation_deg: 45.0,
+            rotation_rate_deg_mm: 5.0,
+        }
+    }
+
+    #[test]
+    fn a_wall_over_the_torch_is_a_collision() {
+        let n = nozzle();
         // Deposited points on a flat row, then a point below them with the tool pointing up.
         let mut pts: Vec<Point3<f64>> = (0..20).map(|k| Point3::new(k as f64, 0.0, 30.0)).collect();
         pts.push(Point3::new(5.0, 0.0, 0.0));
@@ -77,5 +206,43 @@ mod tests {
         let mut away = tools.clone();
         away[20] = -Vector3::z();
         assert!(detect(&pts, &away, &n).is_empty());
+    }
+
+    /// A row of metal 40 mm above and 8 mm beside a row being laid, the torch straight up: the
+    /// nozzle (radius 10) hits it; turning the tool about the travel (x) away from it frees every
+    /// point, the turn ramped at the rate allowed; a wall right above cannot be escaped within 5°
+    /// and is reported.
+    #[test]
+    fn a_turn_about_the_travel_frees_the_nozzle() {
+        let n = nozzle();
+        let mut pts: Vec<Point3<f64>> = (0..40).map(|k| Point3::new(k as f64, 8.0, 40.0)).collect();
+        pts.extend((0..40).map(|k| Point3::new(k as f64, 0.0, 0.0)));
+        let builds = vec![Vector3::z(); pts.len()];
+        let (tools, c) = resolve(&pts, &builds, &n);
+        assert!(c.detected.len() > 10, "{c:?}");
+        assert!(c.unresolved.is_empty(), "{c:?}");
+        assert!(c.max_rotation_deg > 0.0 && c.max_rotation_deg <= n.max_rotation_deg);
+        for w in (40..80).collect::<Vec<_>>().windows(2) {
+            let turn = tools[w[0]].angle(&tools[w[1]]).to_degrees();
+            assert!(
+                turn <= n.rotation_rate_deg_mm * 1.0 + 1e-9,
+                "{turn}° over 1 mm"
+            );
+        }
+        // The turn keeps the tool square to the travel.
+        assert!(tools[60].x.abs() < 1e-12);
+        let tight = Nozzle {
+            max_rotation_deg: 5.0,
+            ..n
+        };
+        let mut over = pts.clone();
+        for p in &mut over[..40] {
+            p.y = 0.0;
+        }
+        let (_, c) = resolve(&over, &builds, &tight);
+        assert!(
+            !c.unresolved.is_empty() && c.unresolved.len() == c.detected.len(),
+            "{c:?}"
+        );
     }
 }

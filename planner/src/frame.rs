@@ -3,6 +3,7 @@
 //! travel made square to it, y = z × x; as a rotation and a unit quaternion (w, x, y, z), the
 //! form robot programs take. Any path with tool axes serves, an imported one included.
 
+use crate::orientation::MIN_CHORD_MM;
 use nalgebra::{Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
 
 /// A tool frame: where and how the torch stands, mm.
@@ -33,16 +34,32 @@ impl Frame {
     }
 }
 
+/// The direction of travel at point i, not normalised: the chord between the points before and
+/// after it, widened until it is at least [`MIN_CHORD_MM`] long (where generators converge, near
+/// a closing point, neighbouring points are hundredths of a millimetre apart and their
+/// difference says nothing of where the torch goes).
+pub fn travel(points: &[Point3<f64>], i: usize) -> Vector3<f64> {
+    let n = points.len();
+    let mut k = 1;
+    loop {
+        let d = points[(i + k).min(n - 1)] - points[i.saturating_sub(k)];
+        if d.norm() >= MIN_CHORD_MM || k >= n {
+            return d;
+        }
+        k += 1;
+    }
+}
+
 /// The frames of `points` with tool axes `tools` (unit, from the deposit to the torch): x the
-/// direction of travel (from the previous point to the next; at the ends, the one segment) made
-/// square to z, or, where the path stands still or runs along the tool, the last such x.
+/// direction of travel ([`travel`]) made square to z, or, where the path stands still or runs
+/// along the tool, the last such x.
 pub fn frames(points: &[Point3<f64>], tools: &[Vector3<f64>]) -> Vec<Frame> {
     let n = points.len();
     let mut last_x = Vector3::x();
     (0..n)
         .map(|i| {
             let z = -tools[i].normalize();
-            let travel = points[(i + 1).min(n - 1)] - points[i.saturating_sub(1)];
+            let travel = travel(points, i);
             let x = (travel - z * travel.dot(&z))
                 .try_normalize(1e-9)
                 .or_else(|| (last_x - z * last_x.dot(&z)).try_normalize(1e-9))

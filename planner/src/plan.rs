@@ -3,7 +3,7 @@
 //! Eq.5), build direction and true deposit (§2.4), feasibility (Eq.6), deviation (Fig. 30).
 
 use crate::closing_point::closing_point;
-use crate::collision::{Nozzle, detect};
+use crate::collision::{Collisions, Nozzle, resolve};
 use crate::deviation::{Deviation, deviation};
 use crate::generators::{FillLimits, Generator, Target, fill_gaps, lower_points, trace};
 use crate::geodesic::path::Tracer;
@@ -37,7 +37,10 @@ pub struct PlanParams {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PathPoint {
     pub position: Point3<f64>,
-    /// Unit vector from the deposit to the torch (the build direction b).
+    /// The build direction b = n × t: the bead's height runs along it.
+    pub build: Vector3<f64>,
+    /// Unit vector from the deposit to the torch: b, turned about the direction of travel where
+    /// the nozzle would hit the part ([`crate::collision::resolve`]).
     pub tool: Vector3<f64>,
     pub layer: usize,
     pub generator: usize,
@@ -59,8 +62,8 @@ pub struct Plan {
     pub points: Vec<PathPoint>,
     pub violations: Vec<Violation>,
     pub deviation: Deviation,
-    /// Path points whose nozzle meets metal already deposited (none resolved yet).
-    pub collisions: Vec<usize>,
+    /// Nozzle collisions found, and those the tool's turn did not resolve.
+    pub collisions: Collisions,
 }
 
 impl Plan {
@@ -230,13 +233,14 @@ pub fn plan(part: &Part, p: &PlanParams) -> Result<Plan, PlanError> {
     let step: Vec<f64> = sp.points.iter().map(|q| q.step_mm).collect();
     let layers: Vec<usize> = sp.points.iter().map(|q| q.layer).collect();
     let oriented = orient(&positions, &layers, &normals, &along, &step);
-    let points: Vec<PathPoint> = sp
+    let mut points: Vec<PathPoint> = sp
         .points
         .iter()
         .zip(&oriented)
         .zip(&positions)
         .map(|((q, o), pos)| PathPoint {
             position: *pos,
+            build: o.tool,
             tool: o.tool,
             layer: q.layer,
             generator: q.generator,
@@ -260,8 +264,11 @@ pub fn plan(part: &Part, p: &PlanParams) -> Result<Plan, PlanError> {
 
     // Fig. 30: deviation of the swept surface.
     let deviation = deviation(&positions, generators.len(), &surface);
-    let tools: Vec<Vector3<f64>> = points.iter().map(|q| q.tool).collect();
-    let collisions = detect(&positions, &tools, &p.nozzle);
+    let builds: Vec<Vector3<f64>> = points.iter().map(|q| q.build).collect();
+    let (tools, collisions) = resolve(&positions, &builds, &p.nozzle);
+    for (q, t) in points.iter_mut().zip(tools) {
+        q.tool = t;
+    }
     Ok(Plan {
         kind: part.kind,
         generators,

@@ -18,6 +18,8 @@ pub fn params(n_points: usize) -> PlanParams {
             radius_mm: 10.0,
             standoff_mm: 12.0,
             length_mm: 80.0,
+            max_rotation_deg: 30.0,
+            rotation_rate_deg_mm: 2.0,
         },
     }
 }
@@ -360,4 +362,55 @@ fn quarter_torus_generators_gaps_and_feasibility() {
             );
         }
     }
+}
+
+/// A closed dome R 40 with the default nozzle (radius 10, 12 to 92 mm from the deposit): near
+/// the top the build direction lies almost flat and the nozzle reaches across to the far side.
+/// Turning the tool about the travel (at most 30°, 2°/mm) frees all but the closing point's last
+/// revolution, where the path turns round a ring a few millimetres wide; what is left is located
+/// in plan.json. With at most 5° most stay, and are reported.
+#[test]
+fn nozzle_collisions_on_a_dome_are_turned_away() {
+    let scenario = |max: f64| {
+        format!(
+            "[part]\nshape = \"hemisphere\"\nradius_mm = 40.0\nedge_mm = 2.5\n[planner]\nn_points = 60\n\
+             nozzle_max_rotation_deg = {max}\n"
+        )
+    };
+    let out = crate::run_scenario("collisions_dome", "plan", &scenario(30.0));
+    let plan: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("plan.json")).unwrap()).unwrap();
+    let c = &plan["collisions"];
+    eprintln!("collisions: {c}");
+    let detected = c["detected"].as_u64().unwrap();
+    let unresolved = c["unresolved"].as_u64().unwrap();
+    assert!(detected > 100, "{c}");
+    assert_eq!(c["resolved"].as_u64().unwrap() + unresolved, detected);
+    assert!(unresolved <= 2, "{c}");
+    // The last revolution before the closing point (itself a layer of one point).
+    let (h, rows) = crate::read_csv(&out.join("path.csv"));
+    let layer = h.iter().position(|x| x == "layer").unwrap();
+    let last = rows
+        .iter()
+        .map(|r| r[layer].parse::<u64>().unwrap())
+        .max()
+        .unwrap();
+    for p in c["unresolved_points"].as_array().unwrap() {
+        assert!(p["layer"].as_u64().unwrap() >= last - 1, "{p}");
+    }
+    let turn = c["max_rotation_deg"].as_f64().unwrap();
+    assert!(turn > 0.0 && turn <= 30.0);
+
+    let tight = crate::run_scenario("collisions_dome_tight", "plan", &scenario(5.0));
+    let plan: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(tight.join("plan.json")).unwrap()).unwrap();
+    let t = &plan["collisions"];
+    assert_eq!(t["detected"], detected);
+    assert!(
+        t["unresolved"].as_u64().unwrap() > 10 * unresolved.max(1),
+        "{t}"
+    );
+    assert!(t["max_rotation_deg"].as_f64().unwrap() <= 5.0);
+    let located = t["unresolved_points"].as_array().unwrap();
+    assert!(!located.is_empty() && located[0]["position_mm"].as_array().unwrap().len() == 3);
 }

@@ -150,7 +150,12 @@ pub fn plan_json(s: &Scenario, pl: &Plan) -> Value {
         "violations_at_seam": pl.violations.iter().filter(|v| seam(v.generator)).count(),
         "violations": violations,
         "deviation_mm": {"min": pl.deviation.min_mm, "max": pl.deviation.max_mm, "rms": pl.deviation.rms_mm},
-        "collisions": {"detected": pl.collisions.len(), "resolved": 0, "unresolved": pl.collisions.len()},
+        "collisions": {"detected": pl.collisions.detected.len(),
+            "resolved": pl.collisions.detected.len() - pl.collisions.detected.iter().filter(|i| pl.collisions.unresolved.contains(i)).count(),
+            "unresolved": pl.collisions.unresolved.len(),
+            "unresolved_points": pl.collisions.unresolved.iter().take(50).map(|&i| json!({"i": i, "layer": pl.points[i].layer,
+                "position_mm": [pl.points[i].position.x, pl.points[i].position.y, pl.points[i].position.z]})).collect::<Vec<_>>(),
+            "max_rotation_deg": pl.collisions.max_rotation_deg},
     })
 }
 

@@ -73,7 +73,7 @@ pub fn beads(p: &Process, m: &Material, pl: &Plan) -> Beads {
                 power_w: power,
                 heat_j_m: energy_per_length(power, p.efficiency, travel),
                 bond: bond_number(m.density_kg_m3, r, m.surface_tension_n_m),
-                tilt_rad: tilt_from_vertical([q.tool.x, q.tool.y, q.tool.z]),
+                tilt_rad: tilt_from_vertical([q.build.x, q.build.y, q.build.z]),
             }
         })
         .collect();

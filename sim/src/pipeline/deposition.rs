@@ -113,7 +113,7 @@ pub fn schedule(p: &Process, pl: &Plan, b: &Beads, cooling: &Cooling) -> Vec<Dep
                 heat: arc.heat,
                 width: p.bead_width_m,
                 height: (q.deposit_mm * 1e-3).max(1e-5),
-                axis: [q.tool.x, q.tool.y, q.tool.z],
+                axis: [q.build.x, q.build.y, q.build.z],
                 // The spiral lays point i on the same generator one revolution earlier.
                 support: (q.layer > 0 && i >= n_gen).then(|| i - n_gen),
                 start: None,

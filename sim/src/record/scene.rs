@@ -377,7 +377,7 @@ fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec
             ),
         });
     }
-    for (a, z) in runs(&pl.collisions) {
+    for (a, z) in runs(&pl.collisions.unresolved) {
         ev.push(Event {
             t_s: points[a].t_s,
             level: Level::Warning,

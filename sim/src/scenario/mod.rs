@@ -560,6 +560,20 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
         "between 0 and 500",
     )?;
     c.positive("planner", "nozzle_length_mm", pl.nozzle_length_mm, 5000.0)?;
+    c.range(
+        "planner",
+        "nozzle_max_rotation_deg",
+        pl.nozzle_max_rotation_deg,
+        0.0,
+        90.0,
+        "between 0 and 90",
+    )?;
+    c.positive(
+        "planner",
+        "nozzle_rotation_rate_deg_mm",
+        pl.nozzle_rotation_rate_deg_mm,
+        360.0,
+    )?;
     Ok(PlannerSettings {
         n_points: pl.n_points,
         gap_max_mm: pl.gap_max_mm,
@@ -568,6 +582,8 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
             radius_mm: pl.nozzle_radius_mm,
             standoff_mm: pl.nozzle_standoff_mm,
             length_mm: pl.nozzle_length_mm,
+            max_rotation_deg: pl.nozzle_max_rotation_deg,
+            rotation_rate_deg_mm: pl.nozzle_rotation_rate_deg_mm,
         },
     })
 }

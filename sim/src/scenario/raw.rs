@@ -274,6 +274,10 @@ pub struct RawPlanner {
     pub nozzle_radius_mm: f64,
     pub nozzle_standoff_mm: f64,
     pub nozzle_length_mm: f64,
+    /// The largest turn of the tool about the direction of travel that resolves a collision.
+    pub nozzle_max_rotation_deg: f64,
+    /// The fastest that turn changes along the path.
+    pub nozzle_rotation_rate_deg_mm: f64,
 }
 
 impl Default for RawPlanner {
@@ -285,6 +289,8 @@ impl Default for RawPlanner {
             nozzle_radius_mm: 10.0,
             nozzle_standoff_mm: 12.0,
             nozzle_length_mm: 80.0,
+            nozzle_max_rotation_deg: 30.0,
+            nozzle_rotation_rate_deg_mm: 2.0,
         }
     }
 }
