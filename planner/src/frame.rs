@@ -85,10 +85,10 @@ pub fn numeric_build_directions(points: &[Point3<f64>], layers: &[usize]) -> Vec
     let n = points.len();
     // Each layer's range of points, and a grid of its points for the closest-point search.
     let mut ranges: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
-    for i in 0..n {
+    for (i, &layer) in layers.iter().enumerate().take(n) {
         match ranges.last_mut() {
-            Some((l, r)) if *l == layers[i] => r.end = i + 1,
-            _ => ranges.push((layers[i], i..i + 1)),
+            Some((l, r)) if *l == layer => r.end = i + 1,
+            _ => ranges.push((layer, i..i + 1)),
         }
     }
     let grids: Vec<Grid> = ranges
