@@ -25,6 +25,7 @@ fn main() {
             max_rotation_deg: 30.0,
             rotation_rate_deg_mm: 2.0,
         },
+        torch: planner::frame::Torch::default(),
     };
     let cases = [
         (

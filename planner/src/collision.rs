@@ -24,7 +24,7 @@ pub struct Nozzle {
 /// Collisions found and what was done with them.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Collisions {
-    /// Path points whose nozzle, on the build direction, meets metal already deposited.
+    /// Path points whose nozzle, on the tool axis asked, meets metal already deposited.
     pub detected: Vec<usize>,
     /// Those still hit with the rotated tools.
     pub unresolved: Vec<usize>,
@@ -101,12 +101,12 @@ pub fn detect(points: &[Point3<f64>], tools: &[Vector3<f64>], nozzle: &Nozzle) -
 /// The rotation step tried, degrees.
 const STEP_DEG: f64 = 1.0;
 
-/// Resolve the collisions of the path `points` with build directions `builds`: the tools (the
-/// build directions rotated about the direction of travel where a collision asks), and what was
-/// found and left.
+/// Resolve the collisions of the path `points` with the tool axes `asked` (the build directions
+/// tilted as the torch stands): the tools (those axes rotated about the direction of travel where
+/// a collision asks), and what was found and left.
 pub fn resolve(
     points: &[Point3<f64>],
-    builds: &[Vector3<f64>],
+    asked: &[Vector3<f64>],
     nozzle: &Nozzle,
 ) -> (Vec<Vector3<f64>>, Collisions) {
     let n = points.len();
@@ -114,21 +114,21 @@ pub fn resolve(
     let travel: Vec<Unit<Vector3<f64>>> = (0..n)
         .map(|i| {
             let d = crate::frame::travel(points, i);
-            let b = builds[i];
+            let b = asked[i];
             Unit::try_new(d - b * d.dot(&b), 1e-9).unwrap_or(Vector3::x_axis())
         })
         .collect();
     let turned =
-        |i: usize, deg: f64| Rotation3::from_axis_angle(&travel[i], deg.to_radians()) * builds[i];
+        |i: usize, deg: f64| Rotation3::from_axis_angle(&travel[i], deg.to_radians()) * asked[i];
     // The smallest rotation that frees each colliding point, against what is laid before it.
     let mut laid = Deposited::new(points, nozzle);
     let mut needed: Vec<(usize, f64)> = Vec::new();
     let mut detected = Vec::new();
     for i in 0..n {
-        if laid.hits(&points[i], &builds[i], nozzle) {
+        if laid.hits(&points[i], &asked[i], nozzle) {
             detected.push(i);
             // Towards the vertical first (up, away from the part below), then the other way.
-            let up = if travel[i].cross(&builds[i]).z >= 0.0 {
+            let up = if travel[i].cross(&asked[i]).z >= 0.0 {
                 1.0
             } else {
                 -1.0
@@ -164,7 +164,7 @@ pub fn resolve(
     }
     let tools: Vec<Vector3<f64>> = (0..n)
         .map(|i| match angle[i] {
-            0.0 => builds[i],
+            0.0 => asked[i],
             a => turned(i, a),
         })
         .collect();
@@ -217,8 +217,8 @@ mod tests {
         let n = nozzle();
         let mut pts: Vec<Point3<f64>> = (0..40).map(|k| Point3::new(k as f64, 8.0, 40.0)).collect();
         pts.extend((0..40).map(|k| Point3::new(k as f64, 0.0, 0.0)));
-        let builds = vec![Vector3::z(); pts.len()];
-        let (tools, c) = resolve(&pts, &builds, &n);
+        let asked = vec![Vector3::z(); pts.len()];
+        let (tools, c) = resolve(&pts, &asked, &n);
         assert!(c.detected.len() > 10, "{c:?}");
         assert!(c.unresolved.is_empty(), "{c:?}");
         assert!(c.max_rotation_deg > 0.0 && c.max_rotation_deg <= n.max_rotation_deg);
@@ -239,7 +239,7 @@ mod tests {
         for p in &mut over[..40] {
             p.y = 0.0;
         }
-        let (_, c) = resolve(&over, &builds, &tight);
+        let (_, c) = resolve(&over, &asked, &tight);
         assert!(
             !c.unresolved.is_empty() && c.unresolved.len() == c.detected.len(),
             "{c:?}"

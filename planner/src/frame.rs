@@ -3,6 +3,7 @@
 //! travel made square to it, y = z × x; as a rotation and a unit quaternion (w, x, y, z), the
 //! form robot programs take. Any path with tool axes serves, an imported one included.
 
+use crate::geometry::grid::PointGrid;
 use crate::orientation::MIN_CHORD_MM;
 use nalgebra::{Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
 
@@ -74,6 +75,123 @@ pub fn frames(points: &[Point3<f64>], tools: &[Vector3<f64>]) -> Vec<Frame> {
         .collect()
 }
 
+/// How the torch stands on the build direction: Chalvin's two tilts and the fastest the tool may
+/// turn along the path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Torch {
+    /// θ_n, degrees: positive pushes.
+    pub lead_deg: f64,
+    /// θ_t, degrees: positive towards b × t.
+    pub side_deg: f64,
+    /// The tool's largest angular rate along the path, degrees per mm.
+    pub max_rate_deg_mm: f64,
+}
+
+impl Default for Torch {
+    /// Straight along the build direction; 30°/mm, a wrist turning 300°/s at 10 mm/s travel
+    /// (a KUKA KR 16's wrist axes turn at 330 to 615°/s). Tighter bounds leave the tool lagging
+    /// where the build direction spins round a closing point, and the nozzle hits there
+    /// (docs/PHYSICS.md).
+    fn default() -> Self {
+        Torch {
+            lead_deg: 0.0,
+            side_deg: 0.0,
+            max_rate_deg_mm: 30.0,
+        }
+    }
+}
+
+/// What bounding the tool's rate did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RateLimit {
+    /// Points whose tool was turned less than asked.
+    pub limited: usize,
+    /// The fastest turn asked for, degrees per mm.
+    pub max_asked_deg_mm: f64,
+}
+
+/// The tool axes `torch` asks for on the build directions `builds` along `points`: tilted
+/// ([`tilted`]) and rate-bounded ([`limit_rate`]).
+pub fn torch_axes(
+    points: &[Point3<f64>],
+    builds: &[Vector3<f64>],
+    torch: &Torch,
+) -> (Vec<Vector3<f64>>, RateLimit) {
+    let (lead, side) = (torch.lead_deg.to_radians(), torch.side_deg.to_radians());
+    let asked: Vec<Vector3<f64>> = (0..points.len())
+        .map(|i| tilted(&builds[i], &travel(points, i), lead, side))
+        .collect();
+    let (tools, limited, max_asked_deg_mm) = limit_rate(points, &asked, torch.max_rate_deg_mm);
+    (
+        tools,
+        RateLimit {
+            limited,
+            max_asked_deg_mm,
+        },
+    )
+}
+
+/// The tool axis (from the deposit to the torch) tilted from the build direction `build` as in
+/// Chalvin et al. 2019 Fig. 10: by `lead_rad` (θ_n) in the feeding plane of the travel and b, a
+/// positive lead pushing (the torch's body trails, its tip points along the travel), then by
+/// `side_rad` (θ_t) in the plane square to the travel, positive towards b × t (the left of the
+/// travel, seen from above). Zero angles give b back.
+pub fn tilted(
+    build: &Vector3<f64>,
+    travel: &Vector3<f64>,
+    lead_rad: f64,
+    side_rad: f64,
+) -> Vector3<f64> {
+    let b = build.normalize();
+    let Some(t) = (travel - b * travel.dot(&b)).try_normalize(1e-12) else {
+        return b;
+    };
+    let side = b.cross(&t);
+    let pushed = b * lead_rad.cos() - t * lead_rad.sin();
+    (pushed * side_rad.cos() + side * side_rad.sin()).normalize()
+}
+
+/// The tool axes with the tool's angular rate along the path bounded by `max_deg_per_mm`: each
+/// axis turned from the one before towards its own by at most the rate times the distance
+/// between the points (a forward slew limit; the torch lags a sharp change and catches up). Also
+/// the number of axes changed and the largest rate found before, °/mm.
+pub fn limit_rate(
+    points: &[Point3<f64>],
+    tools: &[Vector3<f64>],
+    max_deg_per_mm: f64,
+) -> (Vec<Vector3<f64>>, usize, f64) {
+    let mut out: Vec<Vector3<f64>> = tools.to_vec();
+    let (mut changed, mut worst) = (0, 0.0f64);
+    for i in 1..out.len() {
+        let step = (points[i] - points[i - 1]).norm();
+        let angle = out[i - 1].angle(&tools[i]);
+        if step > 0.0 {
+            worst = worst.max(tools[i - 1].angle(&tools[i]).to_degrees() / step);
+        }
+        let allowed = (max_deg_per_mm * step).to_radians();
+        if angle > allowed + 1e-12 {
+            let from = nalgebra::Unit::new_normalize(out[i - 1]);
+            let to = nalgebra::Unit::new_normalize(tools[i]);
+            out[i] = from
+                .try_slerp(&to, allowed / angle, 1e-12)
+                .map(|u| u.into_inner())
+                .unwrap_or(out[i - 1]);
+            changed += 1;
+        }
+    }
+    (out, changed, worst)
+}
+
+/// The largest angular rate of the tool between neighbouring points, °/mm.
+pub fn max_rate(points: &[Point3<f64>], tools: &[Vector3<f64>]) -> f64 {
+    (1..points.len())
+        .filter_map(|i| {
+            let step = (points[i] - points[i - 1]).norm();
+            (step > 0.0).then(|| tools[i - 1].angle(&tools[i]).to_degrees() / step)
+        })
+        .fold(0.0, f64::max)
+}
+
 /// The numeric build direction of Chalvin et al. 2019 §3.1, for any path given as points in
 /// order with their layer (a layer's points contiguous): t from the point before to the point
 /// after on the same layer; n the mean of the unit normals of two facets, the lower (those two
@@ -91,9 +209,9 @@ pub fn numeric_build_directions(points: &[Point3<f64>], layers: &[usize]) -> Vec
             _ => ranges.push((layer, i..i + 1)),
         }
     }
-    let grids: Vec<Grid> = ranges
+    let grids: Vec<PointGrid> = ranges
         .iter()
-        .map(|(_, r)| Grid::new(points, r.clone()))
+        .map(|(_, r)| PointGrid::new(points, r.clone(), 1.0))
         .collect();
     let mut out = vec![Vector3::zeros(); n];
     for (k, (_, r)) in ranges.iter().enumerate() {
@@ -106,11 +224,11 @@ pub fn numeric_build_directions(points: &[Point3<f64>], layers: &[usize]) -> Vec
             let p = points[i];
             // Facet normals oriented so that n × t points to the layer above.
             let lower = (k > 0)
-                .then(|| grids[k - 1].closest(points, &p))
+                .then(|| points[grids[k - 1].closest(points, &p)])
                 .map(|q| (p - q).cross(&t));
             let upper = grids
                 .get(k + 1)
-                .map(|g| g.closest(points, &p))
+                .map(|g| points[g.closest(points, &p)])
                 .map(|q| (q - p).cross(&t));
             let unit = |v: Option<Vector3<f64>>| v.and_then(|v| v.try_normalize(1e-15));
             let normal = match (unit(lower), unit(upper)) {
@@ -126,64 +244,6 @@ pub fn numeric_build_directions(points: &[Point3<f64>], layers: &[usize]) -> Vec
         }
     }
     out
-}
-
-/// A layer's points on a uniform grid, for the closest one to a point.
-struct Grid {
-    cell: f64,
-    map: std::collections::HashMap<[i64; 3], Vec<u32>>,
-    any: usize,
-}
-
-impl Grid {
-    fn new(points: &[Point3<f64>], range: std::ops::Range<usize>) -> Grid {
-        let cell = 1.0;
-        let mut map: std::collections::HashMap<[i64; 3], Vec<u32>> = Default::default();
-        let any = range.start;
-        for i in range {
-            map.entry(key(&points[i], cell)).or_default().push(i as u32);
-        }
-        Grid { cell, map, any }
-    }
-
-    /// The closest point: shells of cells outwards until the best found is nearer than the
-    /// next shell can be.
-    fn closest(&self, points: &[Point3<f64>], p: &Point3<f64>) -> Point3<f64> {
-        let c = key(p, self.cell);
-        let mut best: Option<(f64, usize)> = None;
-        for ring in 0..64i64 {
-            for dx in -ring..=ring {
-                for dy in -ring..=ring {
-                    for dz in -ring..=ring {
-                        if dx.abs().max(dy.abs()).max(dz.abs()) != ring {
-                            continue;
-                        }
-                        for &j in self
-                            .map
-                            .get(&[c[0] + dx, c[1] + dy, c[2] + dz])
-                            .into_iter()
-                            .flatten()
-                        {
-                            let d = (points[j as usize] - p).norm();
-                            if best.is_none_or(|b| d < b.0) {
-                                best = Some((d, j as usize));
-                            }
-                        }
-                    }
-                }
-            }
-            if let Some((d, j)) = best
-                && d <= ring as f64 * self.cell
-            {
-                return points[j];
-            }
-        }
-        points[best.map_or(self.any, |b| b.1)]
-    }
-}
-
-fn key(p: &Point3<f64>, cell: f64) -> [i64; 3] {
-    std::array::from_fn(|k| (p[k] / cell).floor() as i64)
 }
 
 #[cfg(test)]
@@ -229,6 +289,37 @@ mod tests {
         assert!(mean < 0.25, "{mean}°");
         // Every layer, the first and last with one facet, points upwards.
         assert!((0..pts.len()).all(|i| got[i].dot(&want[i]) > 0.99));
+    }
+
+    /// Fig. 10's tilts: 10° of lead leans the tool back against the travel, 5° to the side
+    /// towards b × t, and the tool stays a unit vector at the angle asked from b.
+    #[test]
+    fn lead_and_side_tilts() {
+        let (b, t) = (Vector3::z(), Vector3::new(2.0, 0.0, 0.3));
+        let lead = tilted(&b, &t, 10f64.to_radians(), 0.0);
+        assert!((lead.angle(&b).to_degrees() - 10.0).abs() < 1e-9);
+        assert!(lead.x < 0.0 && lead.y.abs() < 1e-12);
+        let side = tilted(&b, &t, 0.0, 5f64.to_radians());
+        assert!((side.angle(&b).to_degrees() - 5.0).abs() < 1e-9 && side.y > 0.0);
+        assert!((tilted(&b, &t, 0.0, 0.0) - b).norm() < 1e-15);
+    }
+
+    /// A 90° jump of the tool on a line of 1 mm steps, limited to 15°/mm: six steps of 15°
+    /// reach it, none more than the limit; a path already under the limit is unchanged.
+    #[test]
+    fn the_rate_limit_spreads_a_jump() {
+        let pts: Vec<Point3<f64>> = (0..20).map(|i| Point3::new(i as f64, 0.0, 0.0)).collect();
+        let tools: Vec<Vector3<f64>> = (0..20)
+            .map(|i| if i < 5 { Vector3::z() } else { Vector3::y() })
+            .collect();
+        assert!((max_rate(&pts, &tools) - 90.0).abs() < 1e-9);
+        let (out, changed, worst) = limit_rate(&pts, &tools, 15.0);
+        assert_eq!(changed, 5);
+        assert!((worst - 90.0).abs() < 1e-9);
+        assert!(max_rate(&pts, &out) <= 15.0 + 1e-9);
+        assert!((out[10] - Vector3::y()).norm() < 1e-12);
+        let (same, none, _) = limit_rate(&pts, &out, 15.0);
+        assert_eq!((same, none), (out.clone(), 0));
     }
 
     /// A circle round z with the torch straight above: x the travel, z down, a right-handed

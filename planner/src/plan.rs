@@ -3,8 +3,9 @@
 //! Eq.5), build direction and true deposit (§2.4), feasibility (Eq.6), deviation (Fig. 30).
 
 use crate::closing_point::closing_point;
-use crate::collision::{Collisions, Nozzle, resolve};
+use crate::collision::{Collisions, Nozzle, detect, resolve};
 use crate::deviation::{Deviation, deviation};
+use crate::frame::{RateLimit, Torch, limit_rate, torch_axes};
 use crate::generators::{FillLimits, Generator, Target, fill_gaps, lower_points, trace};
 use crate::geodesic::path::Tracer;
 use crate::geodesic::{HeatOptions, HeatSolver};
@@ -31,6 +32,7 @@ pub struct PlanParams {
     /// process (about 0.01 mm for CMT wire feed control).
     pub tolerance_mm: f64,
     pub nozzle: Nozzle,
+    pub torch: Torch,
 }
 
 /// One point of the path, in deposition order.
@@ -39,7 +41,8 @@ pub struct PathPoint {
     pub position: Point3<f64>,
     /// The build direction b = n × t: the bead's height runs along it.
     pub build: Vector3<f64>,
-    /// Unit vector from the deposit to the torch: b, turned about the direction of travel where
+    /// Unit vector from the deposit to the torch: b tilted by the torch's lead and side angles
+    /// and rate-bounded ([`crate::frame::torch_axes`]), turned about the direction of travel where
     /// the nozzle would hit the part ([`crate::collision::resolve`]).
     pub tool: Vector3<f64>,
     pub layer: usize,
@@ -64,6 +67,8 @@ pub struct Plan {
     pub deviation: Deviation,
     /// Nozzle collisions found, and those the tool's turn did not resolve.
     pub collisions: Collisions,
+    /// What bounding the tool's angular rate did.
+    pub rate_limit: RateLimit,
 }
 
 impl Plan {
@@ -265,7 +270,7 @@ pub fn plan(part: &Part, p: &PlanParams) -> Result<Plan, PlanError> {
     // Fig. 30: deviation of the swept surface.
     let deviation = deviation(&positions, generators.len(), &surface);
     let builds: Vec<Vector3<f64>> = points.iter().map(|q| q.build).collect();
-    let (tools, collisions) = resolve(&positions, &builds, &p.nozzle);
+    let (tools, collisions, rate_limit) = torch_tools(&positions, &builds, &p.nozzle, &p.torch);
     for (q, t) in points.iter_mut().zip(tools) {
         q.tool = t;
     }
@@ -280,5 +285,32 @@ pub fn plan(part: &Part, p: &PlanParams) -> Result<Plan, PlanError> {
         violations,
         deviation,
         collisions,
+        rate_limit,
     })
+}
+
+/// The tools a robot follows on build directions `builds`: tilted as the torch stands and
+/// rate-bounded ([`torch_axes`]), turned away from collisions ([`resolve`]), and bounded once
+/// more because the turns ramp at their own rate on top of the tool's; then what the nozzle
+/// still hits (a point the lagging tool brings into collision counts as detected).
+pub fn torch_tools(
+    positions: &[Point3<f64>],
+    builds: &[Vector3<f64>],
+    nozzle: &Nozzle,
+    torch: &Torch,
+) -> (Vec<Vector3<f64>>, Collisions, RateLimit) {
+    let (asked, asked_limit) = torch_axes(positions, builds, torch);
+    let (turned, mut collisions) = resolve(positions, &asked, nozzle);
+    let (tools, limited, _) = limit_rate(positions, &turned, torch.max_rate_deg_mm);
+    collisions.unresolved = detect(positions, &tools, nozzle);
+    for &i in &collisions.unresolved {
+        if let Err(at) = collisions.detected.binary_search(&i) {
+            collisions.detected.insert(at, i);
+        }
+    }
+    let rate_limit = RateLimit {
+        limited: asked_limit.limited + limited,
+        ..asked_limit
+    };
+    (tools, collisions, rate_limit)
 }

@@ -100,11 +100,23 @@ pub enum Command {
         out: PathBuf,
     },
     /// The machine program of a planned DIR (its path.csv): program.json, program.mod (ABB
-    /// RAPID) or program.src (KUKA KRL), one linear move per path point with the full tool frame.
+    /// RAPID), program.src (KUKA KRL) or program.nc (5-axis G-code for a tilt-rotary table), one
+    /// linear move per path point with the full tool frame.
     Export {
         dir: PathBuf,
         #[arg(long, value_enum)]
         format: crate::commands::export::Format,
+        /// G-code: the pivot (where the table's tilt axis A meets its rotary axis C) in machine
+        /// coordinates, mm.
+        #[arg(long, value_delimiter = ',', num_args = 1, default_values_t = [0.0, 0.0, 0.0], allow_hyphen_values = true)]
+        pivot_mm: Vec<f64>,
+        /// G-code: the part's origin on the rotary table, in the table's frame (z along its
+        /// axis), mm.
+        #[arg(long, value_delimiter = ',', num_args = 1, default_values_t = [0.0, 0.0, 0.0], allow_hyphen_values = true)]
+        part_offset_mm: Vec<f64>,
+        /// G-code: the tilt A's limits, degrees.
+        #[arg(long, value_delimiter = ',', num_args = 1, default_values_t = [-120.0, 120.0], allow_hyphen_values = true)]
+        tilt_limits_deg: Vec<f64>,
     },
     /// A built-in closed-part scenario, end to end.
     Demo {
@@ -120,4 +132,8 @@ pub enum Strategy {
     Ctpp,
     /// The planar 2.5D baseline: horizontal slices every h.
     Planar,
+    /// Chalvin et al. 2019 §2.1 on a quarter_torus part: layers square to the neutral axis.
+    TubePerpendicular,
+    /// Chalvin et al. 2019 §2.2 (Eq.2) on a quarter_torus part: non-planar layers.
+    TubeNonPlanar,
 }

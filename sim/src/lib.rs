@@ -119,8 +119,15 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Export { dir, format } => {
-            println!("{}", commands::export::run(&dir, format)?);
+        Command::Export {
+            dir,
+            format,
+            pivot_mm,
+            part_offset_mm,
+            tilt_limits_deg,
+        } => {
+            let table = commands::export::table(&pivot_mm, &part_offset_mm, &tilt_limits_deg)?;
+            println!("{}", commands::export::run(&dir, format, &table)?);
             Ok(())
         }
         Command::Demo { out } => {

@@ -1,6 +1,7 @@
 //! `waamtwin export`: the machine programs of a dwelled dome, parsed back: one move per path
 //! point at its position (1e-6 mm) and tool frame (1e-6 rad), the arc struck once at the start
-//! and once after each arc stop the plan made.
+//! and once after each arc stop the plan made; the G-code's axes through the table's kinematics;
+//! a layered tube path struck once per bead.
 
 use crate::{read_csv, waamtwin};
 use planner::frame::{Frame, frames};
@@ -59,6 +60,7 @@ fn programs_parse_back_to_the_path() {
         let o = waamtwin(&["export", out.to_str().unwrap(), "--format", format]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
+    gcode_parses_back(&out, &expected, 1 + stops);
 
     let j: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("program.json")).unwrap()).unwrap();
@@ -115,6 +117,61 @@ fn programs_parse_back_to_the_path() {
     assert_eq!(krl.matches("$OUT[1] = FALSE").count(), 1 + stops);
 }
 
+/// The G-code of a tilt-rotary table with its pivot off the origin and the part raised on the
+/// table: every G0/G1's axes taken back through the table's kinematics, written here apart from
+/// the exporter's (m = P + Rx(A)·Rz(C)·(p + o), the torch along the machine's +Z), give the
+/// path point within 1e-6 mm and its tool axis within 1e-6 rad; C never turns back a half turn
+/// between moves; one M3 and one M5 per bead.
+fn gcode_parses_back(out: &std::path::Path, expected: &[Frame], beads: usize) {
+    let o = waamtwin(&[
+        "export",
+        out.to_str().unwrap(),
+        "--format",
+        "gcode",
+        "--pivot-mm",
+        "250,-40,-300",
+        "--part-offset-mm",
+        "0,0,45",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = std::fs::read_to_string(out.join("program.nc")).unwrap();
+    let moves: Vec<&str> = g
+        .lines()
+        .filter(|l| l.contains("G1 X") || l.contains("G0 X"))
+        .collect();
+    assert_eq!(moves.len(), expected.len());
+    let (pivot, offset) = (
+        Vector3::new(250.0, -40.0, -300.0),
+        Vector3::new(0.0, 0.0, 45.0),
+    );
+    let mut last_c: Option<f64> = None;
+    for (k, (l, f)) in moves.iter().zip(expected).enumerate() {
+        let word = |w: char| -> f64 {
+            let at = l.find(&format!(" {w}")).unwrap() + 2;
+            l[at..].split(' ').next().unwrap().parse().unwrap()
+        };
+        let (a, c) = (word('A').to_radians(), word('C').to_radians());
+        let back = Rotation3::from_axis_angle(&Vector3::z_axis(), -c)
+            * Rotation3::from_axis_angle(&Vector3::x_axis(), -a);
+        let m = Vector3::new(word('X'), word('Y'), word('Z'));
+        let p = back * (m - pivot) - offset;
+        let d = (p - f.position.coords).norm();
+        assert!(d < 1e-6, "gcode move {k}: {d} mm off");
+        let angle = (back * Vector3::z()).angle(&f.tool());
+        assert!(angle < 1e-6, "gcode move {k}: tool {angle} rad off");
+        if let Some(prev) = last_c {
+            assert!((c.to_degrees() - prev).abs() < 180.0, "C jumps at move {k}");
+        }
+        last_c = Some(c.to_degrees());
+        if k > 0 {
+            assert!(l.contains(" F"), "{l}");
+        }
+    }
+    assert!(g.contains("G93"), "inverse-time feed");
+    assert_eq!(g.lines().filter(|l| *l == "M3").count(), beads);
+    assert_eq!(g.lines().filter(|l| *l == "M5").count(), beads);
+}
+
 /// A path.csv that is not one: exit 2 naming the file and line, and no program written.
 #[test]
 fn a_broken_path_is_refused() {
@@ -130,4 +187,85 @@ fn a_broken_path_is_refused() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("path.csv line 3") && e.contains("\"x\""), "{e}");
     assert!(!dir.join("program.mod").exists());
+}
+
+/// The tube strategies' layered path (each layer its own bead, path.csv's `strike`): one strike
+/// and one end per layer, each bead's first move reached with the arc off; a tilt the table
+/// cannot reach is refused with exit 2, naming the point.
+#[test]
+fn a_layered_tube_is_struck_once_per_layer() {
+    let out = crate::scratch("export_tube");
+    let o = waamtwin(&[
+        "plan",
+        crate::root()
+            .join("scenarios/chalvin_torus.toml")
+            .to_str()
+            .unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--strategy",
+        "tube-non-planar",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plan: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("plan.json")).unwrap()).unwrap();
+    let layers = plan["n_layers"].as_u64().unwrap() as usize;
+    let (h, rows) = read_csv(&out.join("path.csv"));
+    let strike = h.iter().position(|x| x == "strike").unwrap();
+    let beads = rows.iter().filter(|r| r[strike] == "1").count();
+    assert!(beads >= layers, "{beads} beads, {layers} layers");
+    for format in ["json", "krl"] {
+        let o = waamtwin(&["export", out.to_str().unwrap(), "--format", format]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("program.json")).unwrap()).unwrap();
+    assert_eq!(j["arc_strikes"].as_u64().unwrap() as usize, beads);
+    let moves = j["moves"].as_array().unwrap();
+    assert_eq!(moves[0]["arc"], "struck_here");
+    // KRL: the arc goes off before the move to a new bead and on after it.
+    let krl = std::fs::read_to_string(out.join("program.src")).unwrap();
+    let lines: Vec<&str> = krl.lines().collect();
+    let on: Vec<usize> = (0..lines.len())
+        .filter(|&i| lines[i] == "$OUT[1] = TRUE")
+        .collect();
+    assert_eq!(on.len(), beads);
+    assert!(on.iter().all(|&i| lines[i - 1].starts_with("LIN")));
+    let (h, rows) = read_csv(&out.join("path.csv"));
+    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
+    let points: Vec<Point3<f64>> = rows
+        .iter()
+        .map(|r| {
+            Point3::new(
+                r[col("x")].parse().unwrap(),
+                r[col("y")].parse().unwrap(),
+                r[col("z")].parse().unwrap(),
+            )
+        })
+        .collect();
+    let tools: Vec<Vector3<f64>> = rows
+        .iter()
+        .map(|r| {
+            Vector3::new(
+                r[col("tool_x")].parse().unwrap(),
+                r[col("tool_y")].parse().unwrap(),
+                r[col("tool_z")].parse().unwrap(),
+            )
+        })
+        .collect();
+    gcode_parses_back(&out, &frames(&points, &tools), beads);
+    let o = waamtwin(&[
+        "export",
+        out.to_str().unwrap(),
+        "--format",
+        "gcode",
+        "--tilt-limits-deg",
+        "-20,20",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("path point") && e.contains("--tilt-limits-deg -20,20"),
+        "{e}"
+    );
 }

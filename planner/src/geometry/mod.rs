@@ -4,6 +4,7 @@
 //! L = −Δ (L_ii = Σ_j w_ij, L_ij = −w_ij, w_ij = (cot α_ij + cot β_ij)/2), so L·1 = 0.
 
 pub mod closest;
+pub mod grid;
 pub mod intrinsic;
 pub mod sparse;
 

@@ -1,14 +1,15 @@
 //! `waamtwin export DIR --format json|rapid|krl`: the machine program of a planned DIR, from its
 //! path.csv (a `plan`, `simulate` or `dwell` run): one linear move per path point with the full
 //! tool frame ([`planner::frame`]), its wire feed and travel speed, the arc struck once at the
-//! start, put out and struck again around each dwell and each drop the plan made, and put out at
-//! the end. Written beside path.csv as program.json, program.mod (ABB RAPID) or program.src
-//! (KUKA KRL).
+//! start, put out and struck again around each dwell and each drop the plan made (and before
+//! each bead of a layered path, its `strike` column), and put out at the end. Written beside path.csv as program.json, program.mod (ABB RAPID) or program.src
+//! (KUKA KRL), program.nc (5-axis G-code for a tilt-rotary table, [`planner::table`]).
 
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
 use planner::frame::{Frame, frames};
 use planner::nalgebra::{Point3, Vector3};
+use planner::table::Table;
 use serde_json::json;
 use std::fmt::Write;
 use std::path::Path;
@@ -23,6 +24,49 @@ pub enum Format {
     Rapid,
     /// KUKA KRL: LIN with A, B, C, $VEL.CP, WAIT SEC, $OUT/$ANOUT.
     Krl,
+    /// 5-axis G-code for a tilt-rotary table (A about X, C about the table's axis; the torch
+    /// fixed along −Z): G1 X Y Z A C in inverse-time feed (G93), M3/M5 for the arc, M68 for the
+    /// wire feed, G4 for dwells.
+    Gcode,
+}
+
+/// The table's kinematics from the command line, checked.
+pub fn table(pivot: &[f64], offset: &[f64], tilt: &[f64]) -> Result<Table> {
+    let all = pivot.iter().chain(offset).chain(tilt);
+    if pivot.len() != 3
+        || offset.len() != 3
+        || tilt.len() != 2
+        || !all.clone().all(|v| v.is_finite())
+    {
+        return Err(Error::input(format!(
+            "--pivot-mm {pivot:?}, --part-offset-mm {offset:?}, --tilt-limits-deg {tilt:?}; expected three, three and two finite numbers"
+        )));
+    }
+    if !(tilt[0] < tilt[1] && tilt[0] >= -180.0 && tilt[1] <= 180.0) {
+        return Err(Error::input(format!(
+            "--tilt-limits-deg {},{}; expected MIN,MAX with -180 <= MIN < MAX <= 180",
+            tilt[0], tilt[1]
+        )));
+    }
+    Ok(Table {
+        pivot_mm: [pivot[0], pivot[1], pivot[2]],
+        part_offset_mm: [offset[0], offset[1], offset[2]],
+        tilt_min_deg: tilt[0],
+        tilt_max_deg: tilt[1],
+    })
+}
+
+/// The arc on a move.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arc {
+    /// Laid from the point before with the arc burning.
+    On,
+    /// The arc put out, the dwell waited, the arc struck again where the torch stands, then
+    /// this stretch laid (a dwell or a drop of the plan).
+    Restruck,
+    /// Reached with the arc off (the approach, or the move to the next bead of a layered
+    /// path), the arc struck here.
+    StruckHere,
 }
 
 /// One linear move: the frame at the path point and how it is reached.
@@ -31,14 +75,12 @@ pub struct Move {
     pub frame: Frame,
     pub wfs_m_min: f64,
     pub travel_mm_s: f64,
-    /// The arc is put out and struck again before this move (after a dwell, or for a drop); the
-    /// first move strikes the arc.
-    pub strikes: bool,
+    pub arc: Arc,
     /// The wait with the arc off before it, s.
     pub dwell_s: f64,
 }
 
-pub fn run(dir: &Path, format: Format) -> Result<String> {
+pub fn run(dir: &Path, format: Format, table: &Table) -> Result<String> {
     let file = dir.join("path.csv");
     let text = std::fs::read_to_string(&file).map_err(|e| {
         Error::input(format!(
@@ -51,9 +93,10 @@ pub fn run(dir: &Path, format: Format) -> Result<String> {
         Format::Json => ("program.json", json_program(&moves)),
         Format::Rapid => ("program.mod", rapid(&moves)),
         Format::Krl => ("program.src", krl(&moves)),
+        Format::Gcode => ("program.nc", gcode(&moves, table)?),
     };
     write_atomic(&dir.join(name), body.as_bytes())?;
-    let strikes = moves.iter().filter(|m| m.strikes).count();
+    let strikes = moves.iter().filter(|m| m.arc != Arc::On).count();
     Ok(format!(
         "{}: {} moves, the arc struck {strikes} times",
         dir.join(name).display(),
@@ -88,6 +131,8 @@ pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
     ];
     let at: Vec<usize> = names.iter().map(|n| col(n)).collect::<Result<_>>()?;
     let drop = header.iter().position(|h| *h == "drop");
+    // A layered path (the tube strategies) says where each bead starts.
+    let strike_col = header.iter().position(|h| *h == "strike");
     let (mut points, mut tools, mut rows) = (Vec::new(), Vec::new(), Vec::new());
     for (k, line) in lines {
         if line.trim().is_empty() {
@@ -128,13 +173,24 @@ pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
                 v[8]
             )));
         }
-        let strike = match drop {
-            Some(c) => number(c, "drop")? == 1.0,
-            None => false,
+        let restrike = v[8] > 0.0
+            || match drop {
+                Some(c) => number(c, "drop")? == 1.0,
+                None => false,
+            };
+        let new_bead = points.is_empty()
+            || match strike_col {
+                Some(c) => number(c, "strike")? == 1.0,
+                None => false,
+            };
+        let arc = match (new_bead, restrike) {
+            (true, _) => Arc::StruckHere,
+            (false, true) => Arc::Restruck,
+            (false, false) => Arc::On,
         };
         points.push(Point3::new(v[0], v[1], v[2]));
         tools.push(tool);
-        rows.push((v[6], v[7], v[8], strike));
+        rows.push((v[6], v[7], v[8], arc));
     }
     if points.is_empty() {
         return Err(Error::input(format!(
@@ -144,12 +200,11 @@ pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
     Ok(frames(&points, &tools)
         .into_iter()
         .zip(rows)
-        .enumerate()
-        .map(|(i, (frame, (wfs, travel, dwell, strike)))| Move {
+        .map(|(frame, (wfs, travel, dwell, arc))| Move {
             frame,
             wfs_m_min: wfs,
             travel_mm_s: travel,
-            strikes: i == 0 || dwell > 0.0 || strike,
+            arc,
             dwell_s: dwell,
         })
         .collect())
@@ -163,14 +218,16 @@ fn json_program(moves: &[Move]) -> String {
             let p = m.frame.position;
             json!({"i": i, "position_mm": [p.x, p.y, p.z], "quaternion_wxyz": m.frame.quaternion(),
                 "tool_axis": m.frame.tool().as_slice(), "wfs_m_min": m.wfs_m_min,
-                "travel_mm_s": m.travel_mm_s, "arc_strikes_before": m.strikes, "dwell_before_s": m.dwell_s})
+                "travel_mm_s": m.travel_mm_s, "arc": match m.arc { Arc::On => "on", Arc::Restruck => "restruck", Arc::StruckHere => "struck_here" },
+                "dwell_before_s": m.dwell_s})
         })
         .collect();
     let doc = json!({
         "format": "waamtwin program",
         "version": 1,
         "frame": "tool z from the torch to the deposit, x along the travel, y = z × x; quaternion (w, x, y, z)",
-        "arc_strikes": moves.iter().filter(|m| m.strikes).count(),
+        "arc": "on: laid from the point before with the arc burning; restruck: the arc put out, dwell_before_s waited, struck again, then laid; struck_here: reached with the arc off, struck at the point",
+        "arc_strikes": moves.iter().filter(|m| m.arc != Arc::On).count(),
         "moves": m,
     });
     serde_json::to_string_pretty(&doc).unwrap_or_default()
@@ -184,27 +241,43 @@ fn rapid(moves: &[Move]) -> String {
     );
     let mut wfs = f64::NAN;
     for (i, m) in moves.iter().enumerate() {
-        if m.strikes {
-            if i > 0 {
-                let _ = writeln!(s, "    SetDO doArc, 0;");
-            }
-            if m.dwell_s > 0.0 {
-                let _ = writeln!(s, "    WaitTime {:.3};", m.dwell_s);
-            }
+        if m.arc != Arc::On && i > 0 {
+            let _ = writeln!(s, "    SetDO doArc, 0;");
+        }
+        if m.arc != Arc::On && m.dwell_s > 0.0 {
+            let _ = writeln!(s, "    WaitTime {:.3};", m.dwell_s);
         }
         if m.wfs_m_min != wfs {
             wfs = m.wfs_m_min;
             let _ = writeln!(s, "    SetAO aoWireFeed, {wfs:.6};");
         }
-        if m.strikes {
+        if m.arc == Arc::Restruck {
             let _ = writeln!(s, "    SetDO doArc, 1;");
         }
         let (p, q) = (m.frame.position, m.frame.quaternion());
         let _ = writeln!(
             s,
-            "    MoveL [[{:.6},{:.6},{:.6}],[{:.9},{:.9},{:.9},{:.9}],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]], [{:.6},500,5000,1000], z0, tWaam;",
-            p.x, p.y, p.z, q[0], q[1], q[2], q[3], m.travel_mm_s
+            "    MoveL [[{:.6},{:.6},{:.6}],[{:.9},{:.9},{:.9},{:.9}],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]], [{:.6},500,5000,1000], {}, tWaam;",
+            p.x,
+            p.y,
+            p.z,
+            q[0],
+            q[1],
+            q[2],
+            q[3],
+            m.travel_mm_s,
+            // The torch stops where the arc is struck.
+            if moves.get(i + 1).is_some_and(|n| n.arc == Arc::StruckHere)
+                || m.arc == Arc::StruckHere
+            {
+                "fine"
+            } else {
+                "z0"
+            }
         );
+        if m.arc == Arc::StruckHere {
+            let _ = writeln!(s, "    SetDO doArc, 1;");
+        }
     }
     s.push_str("    SetDO doArc, 0;\n  ENDPROC\nENDMODULE\n");
     s
@@ -217,17 +290,15 @@ fn krl(moves: &[Move]) -> String {
         "DEF WaamPath()\n; waamtwin: one LIN per path point; tool z from the torch to the deposit.\n",
     );
     for (i, m) in moves.iter().enumerate() {
-        if m.strikes {
-            if i > 0 {
-                s.push_str("$OUT[1] = FALSE\n");
-            }
-            if m.dwell_s > 0.0 {
-                let _ = writeln!(s, "WAIT SEC {:.3}", m.dwell_s);
-            }
+        if m.arc != Arc::On && i > 0 {
+            s.push_str("$OUT[1] = FALSE\n");
+        }
+        if m.arc != Arc::On && m.dwell_s > 0.0 {
+            let _ = writeln!(s, "WAIT SEC {:.3}", m.dwell_s);
         }
         let _ = writeln!(s, "$ANOUT[1] = {:.6}", m.wfs_m_min / 10.0);
         let _ = writeln!(s, "$VEL.CP = {:.6}", m.travel_mm_s * 1e-3);
-        if m.strikes {
+        if m.arc == Arc::Restruck {
             s.push_str("$OUT[1] = TRUE\n");
         }
         let (p, [a, b, c]) = (m.frame.position, m.frame.abc());
@@ -241,7 +312,66 @@ fn krl(moves: &[Move]) -> String {
             b.to_degrees(),
             c.to_degrees()
         );
+        if m.arc == Arc::StruckHere {
+            s.push_str("$OUT[1] = TRUE\n");
+        }
     }
     s.push_str("$OUT[1] = FALSE\nEND\n");
     s
+}
+
+/// G-code for a tilt-rotary table ([`Table`]): one G1 per path point with the machine's X, Y, Z
+/// and the table's A, C (continuous, never a turn back round), in inverse-time feed (G93: F is
+/// 1/minutes for the move, so the torch keeps the travel speed over the part however the table
+/// turns); the arc M3/M5, the wire feed (m/min) as M68 E0 Q, dwells G4 P (seconds). A tool axis
+/// the table cannot reach is refused, naming the point and the tilt.
+fn gcode(moves: &[Move], table: &Table) -> Result<String> {
+    let mut s = format!(
+        "; waamtwin: 5-axis G-code, tilt-rotary table (A about X, C about the table's axis), torch along -Z\n\
+         ; pivot_mm = {:?}, part_offset_mm = {:?}, A within [{}, {}] degrees\n\
+         G21 G90 G17\n",
+        table.pivot_mm, table.part_offset_mm, table.tilt_min_deg, table.tilt_max_deg
+    );
+    let mut c = 0.0;
+    let mut wfs = f64::NAN;
+    for (i, m) in moves.iter().enumerate() {
+        let ax = table
+            .axes(&m.frame.position, &m.frame.tool(), c)
+            .map_err(|e| {
+                Error::input(format!(
+                    "path point {i}: the tool needs A = {:.1} degrees, outside --tilt-limits-deg {},{}",
+                    e.tilt_deg, table.tilt_min_deg, table.tilt_max_deg
+                ))
+            })?;
+        c = ax.c;
+        if m.arc != Arc::On && i > 0 {
+            s.push_str("M5\n");
+        }
+        if m.arc != Arc::On && m.dwell_s > 0.0 {
+            let _ = writeln!(s, "G4 P{:.3}", m.dwell_s);
+        }
+        if m.wfs_m_min != wfs {
+            wfs = m.wfs_m_min;
+            let _ = writeln!(s, "M68 E0 Q{wfs:.6}");
+        }
+        if m.arc == Arc::Restruck {
+            s.push_str("M3\n");
+        }
+        let axes = format!(
+            "X{:.9} Y{:.9} Z{:.9} A{:.9} C{:.9}",
+            ax.x, ax.y, ax.z, ax.a, ax.c
+        );
+        if i == 0 {
+            let _ = writeln!(s, "G94 G0 {axes}\nG93");
+        } else {
+            let length = (m.frame.position - moves[i - 1].frame.position).norm();
+            let minutes = (length / m.travel_mm_s / 60.0).max(1e-9);
+            let _ = writeln!(s, "G1 {axes} F{:.6}", 1.0 / minutes);
+        }
+        if m.arc == Arc::StruckHere {
+            s.push_str("M3\n");
+        }
+    }
+    s.push_str("M5\nG94\nM2\n");
+    Ok(s)
 }

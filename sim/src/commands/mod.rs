@@ -10,3 +10,4 @@ pub mod plan;
 pub mod replay;
 pub mod simulate;
 pub mod study;
+pub mod tube;

@@ -13,6 +13,7 @@ use bead_model::window::Modulation;
 use planner::mesh::Part;
 use planner::plan::{Plan, range};
 use planner::planar;
+use planner::tube;
 use serde_json::{Value, json};
 use std::fmt::Write;
 use std::path::Path;
@@ -29,15 +30,26 @@ pub fn build(s: &Scenario, part: &Part) -> Result<Build> {
 
 pub fn run(scenario: &Path, out: &Path, strategy: Strategy) -> Result<String> {
     let s = Scenario::load(scenario)?;
-    let part = load_part(&s.part)?;
+    // The tube strategies lay their layers on the analytic torus; no mesh is needed.
+    let part = match strategy {
+        Strategy::Ctpp | Strategy::Planar => Some(load_part(&s.part)?),
+        _ => None,
+    };
+    let part = || part.as_ref().expect("loaded for mesh strategies");
     let mut dir = RunDir::create(out)?;
     let line = match strategy {
         Strategy::Ctpp => {
-            let b = build(&s, &part)?;
+            let b = build(&s, part())?;
             write_plan(&mut dir, &s, &b)?;
             summary(&b.plan)
         }
-        Strategy::Planar => write_planar(&mut dir, &s, &part)?,
+        Strategy::Planar => write_planar(&mut dir, &s, part())?,
+        Strategy::TubePerpendicular => {
+            super::tube::write(&mut dir, &s, scenario, tube::Strategy::PerpendicularToAxis)?
+        }
+        Strategy::TubeNonPlanar => {
+            super::tube::write(&mut dir, &s, scenario, tube::Strategy::NonPlanar)?
+        }
     };
     dir.finish("plan", s.to_json())?;
     Ok(line)
@@ -65,10 +77,45 @@ pub fn write_plan(dir: &mut RunDir, s: &Scenario, b: &Build) -> Result<()> {
     let pl = &b.plan;
     let mut json = plan_json(s, pl);
     json["bead"] = bead_json(s, pl, &b.beads);
+    json["interlayer"] = write_interlayer(dir, s, pl)?;
     dir.write_json("plan.json", &json)?;
     dir.write("generators.csv", generators_csv(pl).as_bytes())?;
     dir.write("path.csv", path_csv(b).as_bytes())?;
     Ok(())
+}
+
+/// The local inter-layer distance of the spiral (each point against the closest of the
+/// revolution beneath; the first revolution, on the plate, left out), as the tube strategies
+/// have it: interlayer.csv, interlayer.png, and its spread for plan.json.
+fn write_interlayer(dir: &mut RunDir, s: &Scenario, pl: &Plan) -> Result<Value> {
+    let positions: Vec<_> = pl.points.iter().map(|q| q.position).collect();
+    let layers: Vec<usize> = pl.points.iter().map(|q| q.layer).collect();
+    let distances = planner::interlayer::distances(&positions, &layers, None);
+    let delta = s.plan_params().deposit_mm;
+    let ranges = planner::interlayer::layer_ranges(&layers);
+    let mut csv = String::from("i,layer,around_deg,distance_mm,variation_pct\n");
+    let mut map = Vec::new();
+    for r in &ranges {
+        for i in r.clone() {
+            let Some(d) = distances[i] else { continue };
+            let around = 360.0 * (i - r.start) as f64 / r.len() as f64;
+            let pct = 100.0 * (d / delta - 1.0);
+            let _ = writeln!(csv, "{i},{},{around:.3},{d:.5},{pct:.3}", layers[i]);
+            map.push((around, layers[i] as f64, pct));
+        }
+    }
+    dir.write("interlayer.csv", csv.as_bytes())?;
+    #[cfg(feature = "recording")]
+    if !map.is_empty() {
+        crate::record::interlayer_map(
+            dir,
+            &format!("CTPP on the {}", s.title()),
+            &map,
+            "degrees round the revolution from the seam",
+        )?;
+    }
+    Ok(planner::interlayer::Spread::of(distances, delta)
+        .map_or(Value::Null, |sp| super::tube::spread_json(&sp)))
 }
 
 fn bead_json(s: &Scenario, pl: &Plan, b: &Beads) -> Value {
@@ -100,6 +147,12 @@ fn bead_json(s: &Scenario, pl: &Plan, b: &Beads) -> Value {
         "bond_over_max": b.beads.iter().filter(|x| x.bond > s.bead.bond_max).count(),
         "tilt_from_vertical_deg": r(&|x| x.tilt_rad.to_degrees()),
     })
+}
+
+/// {min, max} of some values, or null where there are none.
+fn minmax_opt(values: impl Iterator<Item = f64>) -> Value {
+    let (lo, hi) = range(values);
+    if lo > hi { Value::Null } else { minmax(lo, hi) }
 }
 
 fn minmax(lo: f64, hi: f64) -> Value {
@@ -151,11 +204,27 @@ pub fn plan_json(s: &Scenario, pl: &Plan) -> Value {
         "violations": violations,
         "deviation_mm": {"min": pl.deviation.min_mm, "max": pl.deviation.max_mm, "rms": pl.deviation.rms_mm},
         "collisions": {"detected": pl.collisions.detected.len(),
+            "detected_layers": minmax_opt(pl.collisions.detected.iter().map(|&i| pl.points[i].layer as f64)),
             "resolved": pl.collisions.detected.len() - pl.collisions.detected.iter().filter(|i| pl.collisions.unresolved.contains(i)).count(),
             "unresolved": pl.collisions.unresolved.len(),
             "unresolved_points": pl.collisions.unresolved.iter().take(50).map(|&i| json!({"i": i, "layer": pl.points[i].layer,
                 "position_mm": [pl.points[i].position.x, pl.points[i].position.y, pl.points[i].position.z]})).collect::<Vec<_>>(),
             "max_rotation_deg": pl.collisions.max_rotation_deg},
+        "tool": tool_json(&p.torch, pl),
+    })
+}
+
+/// How the torch stands (Chalvin Fig. 10) and how fast the tool turns along the path.
+fn tool_json(torch: &planner::frame::Torch, pl: &Plan) -> Value {
+    let positions: Vec<_> = pl.points.iter().map(|q| q.position).collect();
+    let tools: Vec<_> = pl.points.iter().map(|q| q.tool).collect();
+    json!({
+        "lead_deg": torch.lead_deg,
+        "side_deg": torch.side_deg,
+        "rate_max_deg_mm": torch.max_rate_deg_mm,
+        "rate_asked_max_deg_mm": pl.rate_limit.max_asked_deg_mm,
+        "rate_limited_points": pl.rate_limit.limited,
+        "rate_found_max_deg_mm": planner::frame::max_rate(&positions, &tools),
     })
 }
 

@@ -6,7 +6,7 @@ use super::params::{Material, Process};
 use bead_model::bond::{bond_number, tilt_from_vertical};
 use bead_model::heat_input::energy_per_length;
 use bead_model::section::Section;
-use planner::plan::Plan;
+use planner::plan::PathPoint;
 
 /// Per path point, SI.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,11 +50,11 @@ pub struct Beads {
     pub window_m: (f64, f64),
 }
 
-pub fn beads(p: &Process, m: &Material, pl: &Plan) -> Beads {
+/// The beads of path `points` (a plan's, or a tube strategy's).
+pub fn beads(p: &Process, m: &Material, points: &[PathPoint]) -> Beads {
     let window = p.window();
-    let heights: Vec<f64> = pl.points.iter().map(|q| q.deposit_mm * 1e-3).collect();
-    let beads = pl
-        .points
+    let heights: Vec<f64> = points.iter().map(|q| q.deposit_mm * 1e-3).collect();
+    let beads = points
         .iter()
         .zip(&heights)
         .map(|(q, &h)| {

@@ -120,7 +120,7 @@ pub struct Simulation {
 
 impl Build {
     pub fn new(plan: Plan, params: Params) -> Build {
-        let beads = beads::beads(&params.process, &params.material, &plan);
+        let beads = beads::beads(&params.process, &params.material, &plan.points);
         let deposits = deposition::schedule(&params.process, &plan, &beads, &Cooling::default());
         let criteria = Criteria::new(&params);
         Build {

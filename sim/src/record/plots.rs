@@ -660,6 +660,74 @@ fn probe_panel(
     Ok(())
 }
 
+/// The map of the local inter-layer distance (Chalvin et al. 2019 Fig. 5 and 7): each path point
+/// at (`x`, its layer), coloured by its variation from Δ (blue shorter, red longer, white Δ,
+/// saturated at ±50 %), with the colour bar; interlayer.png.
+pub fn interlayer_map(
+    dir: &mut RunDir,
+    title: &str,
+    points: &[(f64, f64, f64)],
+    x_desc: &str,
+) -> Result<()> {
+    const SAT: f64 = 50.0;
+    let colour = |pct: f64| {
+        let f = (pct / SAT).clamp(-1.0, 1.0);
+        let fade = |c: u8| (255.0 - (255.0 - c as f64) * f.abs()).round() as u8;
+        if f < 0.0 {
+            RGBColor(fade(30), fade(70), fade(200))
+        } else {
+            RGBColor(fade(210), fade(40), fade(30))
+        }
+    };
+    draw(dir, "interlayer.png", |area| {
+        let (map, bar) = area.split_horizontally(SIZE.0 - 130);
+        let (x_lo, x_hi) = span(points.iter().map(|p| p.0));
+        let (y_lo, y_hi) = span(points.iter().map(|p| p.1));
+        let (lo, hi) = planner::plan::range(points.iter().map(|p| p.2));
+        let mut chart = ChartBuilder::on(&map)
+            .caption(
+                format!("{title}: inter-layer distance, {lo:+.1} % to {hi:+.1} % of Δ"),
+                (FONT, 22),
+            )
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc("layer")
+            .label_style((FONT, 15))
+            .draw()?;
+        chart.draw_series(
+            points
+                .iter()
+                .map(|&(x, y, v)| Circle::new((x, y), 2, colour(v).filled())),
+        )?;
+        let mut scale = ChartBuilder::on(&bar)
+            .margin_top(60)
+            .margin_bottom(56)
+            .margin_right(12)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..1.0, -SAT..SAT)?;
+        scale
+            .configure_mesh()
+            .disable_x_mesh()
+            .disable_x_axis()
+            .y_desc("% of Δ")
+            .label_style((FONT, 14))
+            .draw()?;
+        scale.draw_series((0..100).map(|k| {
+            let v = -SAT + 2.0 * SAT * k as f64 / 100.0;
+            Rectangle::new(
+                [(0.0, v), (1.0, v + 2.0 * SAT / 100.0)],
+                colour(v + SAT / 100.0).filled(),
+            )
+        }))?;
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

@@ -44,6 +44,7 @@ pub struct PlannerSettings {
     pub gap_max_mm: f64,
     pub deposit_tolerance_mm: f64,
     pub nozzle: planner::collision::Nozzle,
+    pub torch: planner::frame::Torch,
 }
 
 #[derive(Debug, Clone)]
@@ -134,6 +135,7 @@ impl Scenario {
             deposit_max_mm: p.deposit_max_m * 1e3,
             tolerance_mm: self.planner.deposit_tolerance_mm,
             nozzle: self.planner.nozzle,
+            torch: self.planner.torch,
         }
     }
 
@@ -574,6 +576,18 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
         pl.nozzle_rotation_rate_deg_mm,
         360.0,
     )?;
+    for (key, v) in [
+        ("torch_lead_deg", pl.torch_lead_deg),
+        ("torch_side_deg", pl.torch_side_deg),
+    ] {
+        c.range("planner", key, v, -60.0, 60.0, "between -60 and 60")?;
+    }
+    c.positive(
+        "planner",
+        "tool_rate_max_deg_mm",
+        pl.tool_rate_max_deg_mm,
+        360.0,
+    )?;
     Ok(PlannerSettings {
         n_points: pl.n_points,
         gap_max_mm: pl.gap_max_mm,
@@ -584,6 +598,11 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
             length_mm: pl.nozzle_length_mm,
             max_rotation_deg: pl.nozzle_max_rotation_deg,
             rotation_rate_deg_mm: pl.nozzle_rotation_rate_deg_mm,
+        },
+        torch: planner::frame::Torch {
+            lead_deg: pl.torch_lead_deg,
+            side_deg: pl.torch_side_deg,
+            max_rate_deg_mm: pl.tool_rate_max_deg_mm,
         },
     })
 }

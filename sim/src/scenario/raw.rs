@@ -278,6 +278,13 @@ pub struct RawPlanner {
     pub nozzle_max_rotation_deg: f64,
     /// The fastest that turn changes along the path.
     pub nozzle_rotation_rate_deg_mm: f64,
+    /// Chalvin et al. 2019 Fig. 10: θ_n, the torch tilted from the build direction in the
+    /// feeding plane (positive pushes), and θ_t, square to it (positive to the left of the
+    /// travel), degrees.
+    pub torch_lead_deg: f64,
+    pub torch_side_deg: f64,
+    /// The fastest the tool axis may turn along the path, degrees per mm.
+    pub tool_rate_max_deg_mm: f64,
 }
 
 impl Default for RawPlanner {
@@ -291,6 +298,9 @@ impl Default for RawPlanner {
             nozzle_length_mm: 80.0,
             nozzle_max_rotation_deg: 30.0,
             nozzle_rotation_rate_deg_mm: 2.0,
+            torch_lead_deg: 0.0,
+            torch_side_deg: 0.0,
+            tool_rate_max_deg_mm: 30.0,
         }
     }
 }
