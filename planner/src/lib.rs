@@ -22,6 +22,7 @@ pub mod mesh;
 pub mod orientation;
 pub mod plan;
 pub mod planar;
+pub mod saam;
 pub mod shapes;
 pub mod skeleton;
 pub mod spiral;

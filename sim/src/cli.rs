@@ -118,6 +118,13 @@ pub enum Command {
         #[arg(long, value_delimiter = ',', num_args = 1, default_values_t = [-120.0, 120.0], allow_hyphen_values = true)]
         tilt_limits_deg: Vec<f64>,
     },
+    /// Skeleton arc AM of an OBJ skeleton, drop by drop, closed and open loop: drops.csv,
+    /// loops.csv, path.csv, skeleton.json, solidification.png, standoff.png.
+    Skeleton {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+    },
     /// A built-in closed-part scenario, end to end.
     Demo {
         #[arg(short = 'o', long = "out", default_value = "out/demo")]

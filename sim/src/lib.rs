@@ -130,6 +130,10 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             println!("{}", commands::export::run(&dir, format, &table)?);
             Ok(())
         }
+        Command::Skeleton { scenario, out } => {
+            println!("{}", commands::skeleton::run(&scenario, &out)?);
+            Ok(())
+        }
         Command::Demo { out } => {
             commands::demo::demo(&out)?;
             println!("demo written to {}", out.display());

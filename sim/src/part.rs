@@ -25,7 +25,66 @@ pub fn read_mesh_file(path: &Path) -> Result<TriMesh> {
         )));
     }
     let bytes = std::fs::read(path).map_err(|e| Error::input(format!("{name}: {e}")))?;
-    read_mesh(&bytes, format).map_err(|e| Error::input(format!("{name}: {e}")))
+    let mesh = read_mesh(&bytes, format).map_err(|e| Error::input(format!("{name}: {e}")))?;
+    if mesh.faces.is_empty()
+        && format == MeshFormat::Obj
+        && planner::io::read_obj_polylines(&bytes).is_ok_and(|p| !p.lines.is_empty())
+    {
+        return Err(Error::input(format!(
+            "{name}: polylines and no face: a skeleton; expected a surface mesh here (a skeleton is built with `waamtwin skeleton`)"
+        )));
+    }
+    Ok(mesh)
+}
+
+/// The skeleton of a scenario whose `[part] mesh` is an OBJ of polylines (`l` lines), each
+/// with its radius and priority from `[skeleton]`.
+pub fn load_skeleton(
+    spec: &PartSpec,
+    set: &crate::scenario::SkeletonSettings,
+) -> Result<planner::saam::Skeleton> {
+    let PartSource::Mesh(path) = &spec.source else {
+        return Err(Error::input(
+            "[part]: a skeleton is an OBJ of polylines; expected mesh = \"file.obj\"",
+        ));
+    };
+    let name = path.display().to_string();
+    if MeshFormat::from_extension(&name) != Some(MeshFormat::Obj) {
+        return Err(Error::input(format!(
+            "{name}: a skeleton is read from an OBJ's `l` lines; expected a .obj file"
+        )));
+    }
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::input(format!("{name}: {e}")))?
+        .len();
+    if len > MAX_MESH_BYTES {
+        return Err(Error::input(format!(
+            "{name}: file is {len} bytes; expected at most {MAX_MESH_BYTES}"
+        )));
+    }
+    let bytes = std::fs::read(path).map_err(|e| Error::input(format!("{name}: {e}")))?;
+    let planner::io::Polylines { vertices, lines } = planner::io::read_obj_polylines(&bytes)
+        .map_err(|e| Error::input(format!("{name}: {e}")))?;
+    for (key, n) in [
+        ("radii_mm", set.radii_mm.len()),
+        ("priorities", set.priorities.len()),
+    ] {
+        if n > lines.len() {
+            return Err(Error::input(format!(
+                "[skeleton] {key} has {n} entries; {name} has {} polylines",
+                lines.len()
+            )));
+        }
+    }
+    planner::saam::Skeleton::new(&vertices, &lines, |k| planner::saam::graph::BranchSpec {
+        radius_mm: set.radii_mm.get(k).copied().unwrap_or(set.radius_mm),
+        priority: set
+            .priorities
+            .get(k)
+            .copied()
+            .unwrap_or(planner::saam::Priority::None),
+    })
+    .map_err(|e| Error::input(format!("{name}: {e}")))
 }
 
 pub fn part_from_mesh(mesh: TriMesh, lower: LowerLoop, name: &str) -> Result<Part> {

@@ -10,6 +10,7 @@ mod inspect;
 mod outputs;
 mod replay;
 mod scenarios;
+mod skeleton;
 mod study;
 mod thermal;
 

@@ -35,6 +35,17 @@ fn shipped_and_good_scenarios_load() {
         }
         let s =
             sim::scenario::Scenario::load(&f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        if std::fs::read_to_string(&f)
+            .unwrap()
+            .contains("\n[skeleton]")
+        {
+            sim::part::load_skeleton(&s.part, &s.skeleton)
+                .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+            // And the surface commands send the user to `skeleton`.
+            let e = sim::part::load_part(&s.part).unwrap_err();
+            assert!(e.message.contains("waamtwin skeleton"), "{e}");
+            continue;
+        }
         sim::part::load_part(&s.part).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
     }
 }

@@ -7,7 +7,7 @@ mod obj;
 mod ply;
 mod stl;
 
-pub use obj::{read_obj, write_obj};
+pub use obj::{Polylines, read_obj, read_obj_polylines, write_obj};
 pub use ply::{read_ply, write_ply};
 pub use stl::{read_stl, write_stl};
 

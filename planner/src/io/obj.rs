@@ -61,6 +61,70 @@ pub fn read_obj(bytes: &[u8]) -> Result<TriMesh, FormatError> {
     Ok(TriMesh::new(positions, faces))
 }
 
+/// The polylines of an OBJ: its `v x y z` records and its `l a b c ...` lines (1-based, negative
+/// relative, `a/t` forms), each at least two vertices; faces and other records are ignored. A
+/// skeleton for skeleton arc AM (Radel et al. 2019).
+pub fn read_obj_polylines(bytes: &[u8]) -> Result<Polylines, FormatError> {
+    let src = text(bytes);
+    let mut positions = Vec::new();
+    let mut lines = Vec::new();
+    for (i, line) in src.lines().enumerate() {
+        let ln = i + 1;
+        let mut toks = line.split_whitespace();
+        match toks.next() {
+            Some("v") => {
+                let x = parse_f64(F, ln, toks.next(), "vertex x")?;
+                let y = parse_f64(F, ln, toks.next(), "vertex y")?;
+                let z = parse_f64(F, ln, toks.next(), "vertex z")?;
+                positions.push(Point3::new(x, y, z));
+            }
+            Some("l") => {
+                let mut poly = Vec::new();
+                for tok in toks {
+                    let idx = tok.split('/').next().unwrap_or("");
+                    let k: i64 = idx.parse().map_err(|_| {
+                        FormatError::at_line(
+                            F,
+                            ln,
+                            format!("line index '{tok}'; expected an integer"),
+                        )
+                    })?;
+                    let n = positions.len() as i64;
+                    let v = if k > 0 { k - 1 } else { n + k };
+                    if k == 0 || v < 0 || v >= n {
+                        return Err(FormatError::at_line(
+                            F,
+                            ln,
+                            format!("line index {k} refers to no vertex ({n} defined so far)"),
+                        ));
+                    }
+                    poly.push(v as u32);
+                }
+                if poly.len() < 2 {
+                    return Err(FormatError::at_line(
+                        F,
+                        ln,
+                        format!("polyline has {} vertices; expected at least 2", poly.len()),
+                    ));
+                }
+                lines.push(poly);
+            }
+            _ => {}
+        }
+    }
+    Ok(Polylines {
+        vertices: positions,
+        lines,
+    })
+}
+
+/// An OBJ's polylines: its vertices and, per `l` line, the indices it joins.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Polylines {
+    pub vertices: Vec<Point3<f64>>,
+    pub lines: Vec<Vec<u32>>,
+}
+
 pub fn write_obj(mesh: &TriMesh) -> Vec<u8> {
     let mut s = String::from("# waamtwin mesh, mm\n");
     for p in &mesh.positions {

@@ -76,6 +76,9 @@ pub struct Move {
     pub wfs_m_min: f64,
     pub travel_mm_s: f64,
     pub arc: Arc,
+    /// The arc's time standing at the point after it is struck there (a skeleton's drop, its
+    /// welding time), then put out; 0 on a running bead, s.
+    pub burn_s: f64,
     /// The wait with the arc off before it, s.
     pub dwell_s: f64,
 }
@@ -133,6 +136,8 @@ pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
     let drop = header.iter().position(|h| *h == "drop");
     // A layered path (the tube strategies) says where each bead starts.
     let strike_col = header.iter().position(|h| *h == "strike");
+    // A drop by drop path (a skeleton) says how long the arc burns at each point.
+    let burn_col = header.iter().position(|h| *h == "arc_s");
     let (mut points, mut tools, mut rows) = (Vec::new(), Vec::new(), Vec::new());
     for (k, line) in lines {
         if line.trim().is_empty() {
@@ -190,7 +195,17 @@ pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
         };
         points.push(Point3::new(v[0], v[1], v[2]));
         tools.push(tool);
-        rows.push((v[6], v[7], v[8], arc));
+        let burn = match burn_col {
+            Some(c) => number(c, "arc_s")?,
+            None => 0.0,
+        };
+        if burn < 0.0 {
+            return Err(Error::input(format!(
+                "{file} line {}: arc_s {burn}; expected 0 or more seconds",
+                k + 1
+            )));
+        }
+        rows.push((v[6], v[7], v[8], arc, burn));
     }
     if points.is_empty() {
         return Err(Error::input(format!(
@@ -200,11 +215,12 @@ pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
     Ok(frames(&points, &tools)
         .into_iter()
         .zip(rows)
-        .map(|(frame, (wfs, travel, dwell, arc))| Move {
+        .map(|(frame, (wfs, travel, dwell, arc, burn))| Move {
             frame,
             wfs_m_min: wfs,
             travel_mm_s: travel,
             arc,
+            burn_s: burn,
             dwell_s: dwell,
         })
         .collect())
@@ -219,7 +235,7 @@ fn json_program(moves: &[Move]) -> String {
             json!({"i": i, "position_mm": [p.x, p.y, p.z], "quaternion_wxyz": m.frame.quaternion(),
                 "tool_axis": m.frame.tool().as_slice(), "wfs_m_min": m.wfs_m_min,
                 "travel_mm_s": m.travel_mm_s, "arc": match m.arc { Arc::On => "on", Arc::Restruck => "restruck", Arc::StruckHere => "struck_here" },
-                "dwell_before_s": m.dwell_s})
+                "dwell_before_s": m.dwell_s, "arc_burns_s": m.burn_s})
         })
         .collect();
     let doc = json!({
@@ -239,9 +255,9 @@ fn rapid(moves: &[Move]) -> String {
     let mut s = String::from(
         "MODULE WaamPath\n  ! waamtwin: one MoveL per path point; tool z from the torch to the deposit.\n  PROC main()\n",
     );
-    let mut wfs = f64::NAN;
+    let (mut wfs, mut on) = (f64::NAN, false);
     for (i, m) in moves.iter().enumerate() {
-        if m.arc != Arc::On && i > 0 {
+        if m.arc != Arc::On && std::mem::take(&mut on) {
             let _ = writeln!(s, "    SetDO doArc, 0;");
         }
         if m.arc != Arc::On && m.dwell_s > 0.0 {
@@ -253,6 +269,7 @@ fn rapid(moves: &[Move]) -> String {
         }
         if m.arc == Arc::Restruck {
             let _ = writeln!(s, "    SetDO doArc, 1;");
+            on = true;
         }
         let (p, q) = (m.frame.position, m.frame.quaternion());
         let _ = writeln!(
@@ -277,9 +294,17 @@ fn rapid(moves: &[Move]) -> String {
         );
         if m.arc == Arc::StruckHere {
             let _ = writeln!(s, "    SetDO doArc, 1;");
+            on = true;
+        }
+        if m.burn_s > 0.0 && on {
+            let _ = writeln!(s, "    WaitTime {:.3};\n    SetDO doArc, 0;", m.burn_s);
+            on = false;
         }
     }
-    s.push_str("    SetDO doArc, 0;\n  ENDPROC\nENDMODULE\n");
+    if on {
+        s.push_str("    SetDO doArc, 0;\n");
+    }
+    s.push_str("  ENDPROC\nENDMODULE\n");
     s
 }
 
@@ -289,8 +314,9 @@ fn krl(moves: &[Move]) -> String {
     let mut s = String::from(
         "DEF WaamPath()\n; waamtwin: one LIN per path point; tool z from the torch to the deposit.\n",
     );
-    for (i, m) in moves.iter().enumerate() {
-        if m.arc != Arc::On && i > 0 {
+    let mut on = false;
+    for m in moves {
+        if m.arc != Arc::On && std::mem::take(&mut on) {
             s.push_str("$OUT[1] = FALSE\n");
         }
         if m.arc != Arc::On && m.dwell_s > 0.0 {
@@ -300,6 +326,7 @@ fn krl(moves: &[Move]) -> String {
         let _ = writeln!(s, "$VEL.CP = {:.6}", m.travel_mm_s * 1e-3);
         if m.arc == Arc::Restruck {
             s.push_str("$OUT[1] = TRUE\n");
+            on = true;
         }
         let (p, [a, b, c]) = (m.frame.position, m.frame.abc());
         let _ = writeln!(
@@ -314,9 +341,17 @@ fn krl(moves: &[Move]) -> String {
         );
         if m.arc == Arc::StruckHere {
             s.push_str("$OUT[1] = TRUE\n");
+            on = true;
+        }
+        if m.burn_s > 0.0 && on {
+            let _ = writeln!(s, "WAIT SEC {:.3}\n$OUT[1] = FALSE", m.burn_s);
+            on = false;
         }
     }
-    s.push_str("$OUT[1] = FALSE\nEND\n");
+    if on {
+        s.push_str("$OUT[1] = FALSE\n");
+    }
+    s.push_str("END\n");
     s
 }
 
@@ -333,7 +368,7 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
         table.pivot_mm, table.part_offset_mm, table.tilt_min_deg, table.tilt_max_deg
     );
     let mut c = 0.0;
-    let mut wfs = f64::NAN;
+    let (mut wfs, mut on) = (f64::NAN, false);
     for (i, m) in moves.iter().enumerate() {
         let ax = table
             .axes(&m.frame.position, &m.frame.tool(), c)
@@ -344,7 +379,7 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
                 ))
             })?;
         c = ax.c;
-        if m.arc != Arc::On && i > 0 {
+        if m.arc != Arc::On && std::mem::take(&mut on) {
             s.push_str("M5\n");
         }
         if m.arc != Arc::On && m.dwell_s > 0.0 {
@@ -356,6 +391,7 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
         }
         if m.arc == Arc::Restruck {
             s.push_str("M3\n");
+            on = true;
         }
         let axes = format!(
             "X{:.9} Y{:.9} Z{:.9} A{:.9} C{:.9}",
@@ -370,8 +406,16 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
         }
         if m.arc == Arc::StruckHere {
             s.push_str("M3\n");
+            on = true;
+        }
+        if m.burn_s > 0.0 && on {
+            let _ = writeln!(s, "G4 P{:.3}\nM5", m.burn_s);
+            on = false;
         }
     }
-    s.push_str("M5\nG94\nM2\n");
+    if on {
+        s.push_str("M5\n");
+    }
+    s.push_str("G94\nM2\n");
     Ok(s)
 }

@@ -9,5 +9,6 @@ pub mod inspect;
 pub mod plan;
 pub mod replay;
 pub mod simulate;
+pub mod skeleton;
 pub mod study;
 pub mod tube;

@@ -43,6 +43,7 @@ pub mod pace;
 pub mod params;
 pub mod replay;
 pub mod risk;
+pub mod skeleton;
 
 pub use params::Params;
 

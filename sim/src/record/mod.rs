@@ -29,7 +29,9 @@ mod vtkhdf;
 
 pub use colour::{Colour, temperature_colour};
 #[cfg(feature = "recording")]
-pub use plots::{Case, interlayer_map, pareto_plot, probe_plot, study_plots};
+pub use plots::{
+    Case, interlayer_map, pareto_plot, probe_plot, solidification_plot, standoff_plot, study_plots,
+};
 pub use scene::{
     Event, Frame, HOTTEST_SAMPLES, History, Level, PointRecord, Probe, Run, Scene, probe,
 };

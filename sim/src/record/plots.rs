@@ -728,6 +728,90 @@ pub fn interlayer_map(
     })
 }
 
+/// Skeleton arc AM: the contact tip's real distance to the metal per drop, closed loop and
+/// open loop on the same drops, against the CTDWP kept (Radel et al. 2019 §4.1); standoff.png.
+pub fn standoff_plot(
+    dir: &mut RunDir,
+    title: &str,
+    closed: &[f64],
+    open: &[f64],
+    target_mm: f64,
+) -> Result<()> {
+    draw(dir, "standoff.png", |area| {
+        let n = closed.len().max(open.len()).max(1) as f64;
+        let (lo, hi) = span(closed.iter().chain(open).copied().chain([target_mm]));
+        let mut chart = ChartBuilder::on(area)
+            .caption(
+                format!("{title}: contact tip to work distance per drop"),
+                (FONT, 24),
+            )
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..n, lo..hi)?;
+        chart
+            .configure_mesh()
+            .x_desc("drop")
+            .y_desc("CTDWP, mm")
+            .label_style((FONT, 15))
+            .draw()?;
+        let red = RGBColor(210, 60, 60);
+        let blue = RGBColor(50, 100, 220);
+        chart
+            .draw_series(LineSeries::new(
+                open.iter().enumerate().map(|(k, &v)| (k as f64, v)),
+                red.stroke_width(2),
+            ))?
+            .label("open loop (increment δ)")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red));
+        chart
+            .draw_series(LineSeries::new(
+                closed.iter().enumerate().map(|(k, &v)| (k as f64, v)),
+                blue.stroke_width(2),
+            ))?
+            .label("closed loop (the camera's top)")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], blue));
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, target_mm), (n, target_mm)],
+                BLACK.stroke_width(1),
+            ))?
+            .label(format!("set: {target_mm} mm"))
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+        legend(&mut chart, SeriesLabelPosition::UpperLeft)
+    })
+}
+
+/// Skeleton arc AM: per drop, the time from the arc's end until the drop and the metal beneath
+/// it are solid (Radel et al. 2019 Fig. 11); solidification.png.
+pub fn solidification_plot(dir: &mut RunDir, title: &str, seconds: &[f64]) -> Result<()> {
+    draw(dir, "solidification.png", |area| {
+        let n = seconds.len().max(1) as f64;
+        let (_, hi) = span(seconds.iter().copied().chain([0.0]));
+        let mut chart = ChartBuilder::on(area)
+            .caption(format!("{title}: solidification time per drop"), (FONT, 24))
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0.0..n, 0.0..hi)?;
+        chart
+            .configure_mesh()
+            .x_desc("drop")
+            .y_desc("time to solidify after the arc, s")
+            .label_style((FONT, 15))
+            .draw()?;
+        let blue = RGBColor(50, 100, 220);
+        chart.draw_series(LineSeries::new(
+            seconds
+                .iter()
+                .enumerate()
+                .map(|(k, &v)| (k as f64 + 1.0, v)),
+            blue.stroke_width(2),
+        ))?;
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

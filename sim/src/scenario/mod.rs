@@ -57,6 +57,7 @@ pub struct Scenario {
     pub planner: PlannerSettings,
     pub bead: BeadSettings,
     pub output: RawOutput,
+    pub skeleton: SkeletonSettings,
     /// The resolved input, echoed into `manifest.json`.
     pub raw: RawScenario,
 }
@@ -109,6 +110,7 @@ impl Scenario {
             planner: planner(&raw.planner, c)?,
             bead: bead(&raw.bead, c)?,
             output: raw.output.clone(),
+            skeleton: skeleton(&raw.skeleton, c)?,
             raw,
         })
     }
@@ -604,6 +606,150 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
             side_deg: pl.torch_side_deg,
             max_rate_deg_mm: pl.tool_rate_max_deg_mm,
         },
+    })
+}
+
+/// `[skeleton]`, checked: what skeleton arc AM needs beyond the part and the process.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkeletonSettings {
+    pub radius_mm: f64,
+    pub radii_mm: Vec<f64>,
+    pub priorities: Vec<planner::saam::Priority>,
+    pub slicer: planner::saam::SlicerSettings,
+    pub wfs_m_min: f64,
+    pub closed_loop: bool,
+    pub camera_noise_mm: f64,
+    pub drop_height_noise: f64,
+    pub bad_drop_probability: f64,
+    pub bad_drop_height: f64,
+    pub seed: u64,
+    pub min_wait_s: f64,
+    pub max_wait_s: f64,
+    pub heat: bool,
+    pub max_drops: usize,
+}
+
+fn skeleton(k: &RawSkeleton, c: &Checker) -> Result<SkeletonSettings> {
+    const S: &str = "skeleton";
+    c.positive(S, "radius_mm", k.radius_mm, 50.0)?;
+    for (i, r) in k.radii_mm.iter().enumerate() {
+        if !(r.is_finite() && *r > 0.0 && *r <= 50.0) {
+            return Err(c.fail(
+                S,
+                "radii_mm",
+                r,
+                &format!("a radius in (0, 50] mm for polyline {}", i + 1),
+            ));
+        }
+    }
+    let priorities = k
+        .priorities
+        .iter()
+        .map(|p| {
+            planner::saam::Priority::parse(p).ok_or_else(|| {
+                c.fail(
+                    S,
+                    "priorities",
+                    format!("{p:?}"),
+                    "one of \"none\", \"no_conflict\", \"low\", \"conflict\", \"high\"",
+                )
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    c.positive(S, "increment_mm", k.increment_mm, 50.0)?;
+    for (key, v) in [
+        ("divergent_offset_deg", k.divergent_offset_deg),
+        ("convergent_offset_deg", k.convergent_offset_deg),
+    ] {
+        c.range(S, key, v, 0.0, 120.0, "between 0 and 120")?;
+    }
+    c.positive(S, "standoff_mm", k.standoff_mm, 100.0)?;
+    c.positive(S, "nozzle_radius_mm", k.nozzle_radius_mm, 100.0)?;
+    c.positive(S, "nozzle_length_mm", k.nozzle_length_mm, 1000.0)?;
+    c.range(
+        S,
+        "max_collision_standoff_mm",
+        k.max_collision_standoff_mm,
+        0.0,
+        200.0,
+        "between 0 and 200",
+    )?;
+    c.positive(S, "wfs_m_min", k.wfs_m_min, 50.0)?;
+    c.range(
+        S,
+        "camera_noise_mm",
+        k.camera_noise_mm,
+        0.0,
+        10.0,
+        "between 0 and 10",
+    )?;
+    c.range(
+        S,
+        "drop_height_noise",
+        k.drop_height_noise,
+        0.0,
+        0.5,
+        "between 0 and 0.5",
+    )?;
+    c.range(
+        S,
+        "bad_drop_probability",
+        k.bad_drop_probability,
+        0.0,
+        1.0,
+        "between 0 and 1",
+    )?;
+    c.range(
+        S,
+        "bad_drop_height",
+        k.bad_drop_height,
+        0.0,
+        1.0,
+        "between 0 and 1",
+    )?;
+    c.range(
+        S,
+        "min_wait_s",
+        k.min_wait_s,
+        0.0,
+        3600.0,
+        "between 0 and 3600",
+    )?;
+    c.range(
+        S,
+        "max_wait_s",
+        k.max_wait_s,
+        k.min_wait_s,
+        36000.0,
+        "at least min_wait_s and at most 36000",
+    )?;
+    if !(1..=1_000_000).contains(&k.max_drops) {
+        return Err(c.fail(S, "max_drops", k.max_drops, "between 1 and 1000000"));
+    }
+    Ok(SkeletonSettings {
+        radius_mm: k.radius_mm,
+        radii_mm: k.radii_mm.clone(),
+        priorities,
+        slicer: planner::saam::SlicerSettings {
+            increment_mm: k.increment_mm,
+            divergent_offset_deg: k.divergent_offset_deg,
+            convergent_offset_deg: k.convergent_offset_deg,
+            nozzle_radius_mm: k.nozzle_radius_mm,
+            standoff_mm: k.standoff_mm,
+            nozzle_length_mm: k.nozzle_length_mm,
+            max_collision_standoff_mm: k.max_collision_standoff_mm,
+        },
+        wfs_m_min: k.wfs_m_min,
+        closed_loop: k.closed_loop,
+        camera_noise_mm: k.camera_noise_mm,
+        drop_height_noise: k.drop_height_noise,
+        bad_drop_probability: k.bad_drop_probability,
+        bad_drop_height: k.bad_drop_height,
+        seed: k.seed,
+        min_wait_s: k.min_wait_s,
+        max_wait_s: k.max_wait_s,
+        heat: k.heat,
+        max_drops: k.max_drops,
     })
 }
 

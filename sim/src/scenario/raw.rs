@@ -21,6 +21,77 @@ pub struct RawScenario {
     pub bead: RawBead,
     #[serde(default)]
     pub output: RawOutput,
+    #[serde(default)]
+    pub skeleton: RawSkeleton,
+}
+
+/// Skeleton arc AM (`waamtwin skeleton`; Radel et al. 2019): the part is `[part] mesh`, an OBJ
+/// whose `l` lines are the skeleton's polylines.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawSkeleton {
+    /// R_deposit of every polyline, unless `radii_mm` says otherwise.
+    pub radius_mm: f64,
+    /// Per polyline, in the file's order (optional).
+    pub radii_mm: Vec<f64>,
+    /// Per polyline: "none", "no_conflict", "low", "conflict" or "high" (default "none").
+    pub priorities: Vec<String>,
+    /// δ: the nominal increment, mm.
+    pub increment_mm: f64,
+    pub divergent_offset_deg: f64,
+    pub convergent_offset_deg: f64,
+    /// The contact tip to work distance kept (CTDWP).
+    pub standoff_mm: f64,
+    pub nozzle_radius_mm: f64,
+    pub nozzle_length_mm: f64,
+    pub max_collision_standoff_mm: f64,
+    /// The drop's wire feed; its welding time follows from the drop's volume (k_w·4/3·π·R³).
+    pub wfs_m_min: f64,
+    /// The camera closes the loop on each drop's top (§2.4); the other loop is run beside it.
+    pub closed_loop: bool,
+    /// The camera's error on a drop's top (σ), mm.
+    pub camera_noise_mm: f64,
+    /// Each drop's height scatters by this share (σ).
+    pub drop_height_noise: f64,
+    /// Share of bad drops (a poor transfer), and the share of the height they reach.
+    pub bad_drop_probability: f64,
+    pub bad_drop_height: f64,
+    pub seed: u64,
+    /// The least wait after a drop before the next, s (the camera's).
+    pub min_wait_s: f64,
+    /// The longest wait for a drop to solidify before it is given up, s.
+    pub max_wait_s: f64,
+    /// Run the heat model drop by drop (solidification times, waits).
+    pub heat: bool,
+    pub max_drops: usize,
+}
+
+impl Default for RawSkeleton {
+    fn default() -> Self {
+        Self {
+            radius_mm: 3.0,
+            radii_mm: Vec::new(),
+            priorities: Vec::new(),
+            increment_mm: 1.3,
+            divergent_offset_deg: 90.0,
+            convergent_offset_deg: 70.0,
+            standoff_mm: 10.0,
+            nozzle_radius_mm: 12.0,
+            nozzle_length_mm: 60.0,
+            max_collision_standoff_mm: 30.0,
+            wfs_m_min: 2.0,
+            closed_loop: true,
+            camera_noise_mm: 0.05,
+            drop_height_noise: 0.1,
+            bad_drop_probability: 0.02,
+            bad_drop_height: 0.3,
+            seed: 1,
+            min_wait_s: 1.0,
+            max_wait_s: 120.0,
+            heat: true,
+            max_drops: 20_000,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
