@@ -101,6 +101,9 @@ fn the_k_skeleton() {
         .find(|r| r[col("intersection")] == "convergent")
         .unwrap();
     assert!(polyline(conv) == 1 || polyline(conv) == 2);
+    // Turned 70° from its branch, away from the stem it converges on (the torch above, to +x).
+    let t = |c: &str| conv[col(c)].parse::<f64>().unwrap();
+    assert!(t("tool_x") > 0.0 && t("tool_z") > 0.0);
 }
 
 /// The chair (§4.3): the seat meets the back leg at a right angle; points in the collision

@@ -324,10 +324,15 @@ impl Slicer {
         if self.state[b].convergent.is_none()
             && let Some(through) = self.through(upper, b)
         {
-            let n_other = self.geometry[through].at(0.0).1;
+            let other = &self.geometry[through];
+            let n_other = other.at(other.length()).1;
             let sin = n_other.cross(&direction).norm().max(1e-3);
             let from = g.length() - (2.0 * radius / sin).min(g.length());
-            let tool = turned_away(&direction, &n_other, self.set.convergent_offset_deg);
+            // Away from the other branch's axis through the node, where its metal stands.
+            let node = self.sk.nodes[upper].position;
+            let off = g.at(from).0 - node;
+            let away = off - n_other * off.dot(&n_other);
+            let tool = turned_away(&direction, &n_other, &away, self.set.convergent_offset_deg);
             self.state[b].convergent = Some((from, tool));
         }
         let st = &self.state[b];
@@ -456,12 +461,20 @@ fn offset_from(lead: &Vector3<f64>, dir: &Vector3<f64>, deg: f64) -> Vector3<f64
 }
 
 /// The tool at a convergent intersection: the branch's direction turned by `deg` about the
-/// normal to the plane of the two branches, away from `other`.
-fn turned_away(dir: &Vector3<f64>, other: &Vector3<f64>, deg: f64) -> Vector3<f64> {
+/// normal to the plane of the two branches (directions `dir`, `other`), to the side `away` from
+/// the other branch, so that the wire reaches the drop past it.
+fn turned_away(
+    dir: &Vector3<f64>,
+    other: &Vector3<f64>,
+    away: &Vector3<f64>,
+    deg: f64,
+) -> Vector3<f64> {
     let Some(axis) = Unit::try_new(dir.cross(other), 1e-9) else {
         return *dir;
     };
-    Rotation3::from_axis_angle(&axis, -deg.to_radians()) * dir
+    let turn = |sign: f64| Rotation3::from_axis_angle(&axis, sign * deg.to_radians()) * dir;
+    let (a, b) = (turn(1.0), turn(-1.0));
+    if a.dot(away) >= b.dot(away) { a } else { b }
 }
 
 /// §3.3's collision zones, pre-processed: along each branch (every half increment) the nozzle

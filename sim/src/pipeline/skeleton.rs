@@ -89,8 +89,6 @@ fn noise(set: &SkeletonSettings, k: usize) -> Noise {
 pub fn run_loop(sk: &Skeleton, set: &SkeletonSettings, p: &Process, closed: bool) -> LoopRun {
     let mut slicer = Slicer::new(sk, set.slicer);
     let mut tops: Vec<Option<f64>> = vec![None; sk.branches.len()];
-    let wire_mm2 = std::f64::consts::PI / 4.0 * (p.wire_diameter_m * 1e3).powi(2);
-    let feed_mm_s = set.wfs_m_min * 1e3 / 60.0;
     let mut drops = Vec::new();
     while drops.len() < set.max_drops {
         let Some(pl) = slicer.next_drop() else { break };
@@ -113,7 +111,12 @@ pub fn run_loop(sk: &Skeleton, set: &SkeletonSettings, p: &Process, closed: bool
             top_read_mm: read,
             ctdwp_mm: pl.standoff_mm + (pl.s_mm - before),
             bad: nz.bad,
-            weld_time_s: pl.weld_ratio * sphere / (wire_mm2 * feed_mm_s),
+            // The closing drops' welding time (one drop model): volume over the wire's feed.
+            weld_time_s: bead_model::drop::welding_time(
+                pl.weld_ratio * sphere * 1e-9,
+                p.wire_diameter_m,
+                set.wfs_m_min / 60.0,
+            ),
         });
         slicer.built(closed.then_some(read));
     }
