@@ -54,6 +54,9 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
             &open.drops.iter().map(|d| d.ctdwp_mm).collect::<Vec<_>>(),
             set.slicer.standoff_mm,
         )?;
+        if s.output.rerun || s.output.mcap {
+            recordings(&mut dir, &s, &main, heats.as_deref())?;
+        }
         if let Some(h) = &heats {
             crate::record::solidification_plot(
                 &mut dir,
@@ -64,6 +67,55 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     }
     dir.finish("skeleton", s.to_json())?;
     Ok(line(&main, &other, heats.as_deref()))
+}
+
+/// run.rrd and run.mcap: the drops as the run laid them, each at its strike time.
+#[cfg(feature = "recording")]
+fn recordings(
+    dir: &mut RunDir,
+    s: &Scenario,
+    run: &LoopRun,
+    heats: Option<&[DropHeat]>,
+) -> Result<()> {
+    let n = run
+        .drops
+        .iter()
+        .map(|d| d.planned.branch)
+        .max()
+        .map_or(0, |b| b + 1);
+    let polylines: Vec<Vec<[f64; 3]>> = (0..n)
+        .map(|b| {
+            run.slicer
+                .branch(b)
+                .points
+                .iter()
+                .map(|p| [p.x, p.y, p.z])
+                .collect()
+        })
+        .collect();
+    let mut t = 0.0;
+    let views: Vec<crate::record::DropView> = run
+        .drops
+        .iter()
+        .enumerate()
+        .map(|(i, d)| {
+            if i > 0 {
+                t += run.drops[i - 1].weld_time_s + heats.map_or(0.0, |h| h[i - 1].wait_s);
+            }
+            let p = &d.planned;
+            crate::record::DropView {
+                position_mm: [p.position.x, p.position.y, p.position.z],
+                radius_mm: p.radius_mm,
+                tool: [p.tool.x, p.tool.y, p.tool.z],
+                t_s: t,
+                branch: p.branch,
+                ctdwp_mm: d.ctdwp_mm,
+                weld_time_s: d.weld_time_s,
+                solidification_s: heats.map(|h| h[i].solidification_s),
+            }
+        })
+        .collect();
+    crate::record::skeleton_recordings(dir, &s.title(), &polylines, &views)
 }
 
 fn line(main: &LoopRun, other: &LoopRun, heats: Option<&[DropHeat]>) -> String {

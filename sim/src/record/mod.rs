@@ -25,6 +25,8 @@ mod rerun_layout;
 mod rerun_sink;
 mod scene;
 #[cfg(feature = "recording")]
+mod skeleton;
+#[cfg(feature = "recording")]
 mod vtkhdf;
 
 pub use colour::{Colour, temperature_colour};
@@ -35,6 +37,8 @@ pub use plots::{
 pub use scene::{
     Event, Frame, HOTTEST_SAMPLES, History, Level, PointRecord, Probe, Run, Scene, probe,
 };
+#[cfg(feature = "recording")]
+pub use skeleton::{DropView, skeleton_recordings};
 
 use crate::error::Result;
 use crate::output::RunDir;
