@@ -91,6 +91,10 @@ pub enum Command {
         /// Write a job-array script for a scheduler instead of running (`slurm`).
         #[arg(long)]
         emit: Option<String>,
+        /// Cases run at once; default: as many as this machine has cores and memory for
+        /// (the base scenario's estimate per case).
+        #[arg(long)]
+        jobs: Option<usize>,
     },
     /// Write a scenario's part (a library shape or a mesh file) as a welded STL, OBJ or PLY mesh.
     Mesh {

@@ -88,6 +88,7 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             out,
             shard,
             emit,
+            jobs,
         } => {
             let shard = shard
                 .as_deref()
@@ -95,7 +96,7 @@ pub fn run(cli: cli::Cli) -> Result<()> {
                 .transpose()?;
             println!(
                 "{}",
-                commands::study::run(&study, &out, shard, emit.as_deref())?
+                commands::study::run(&study, &out, shard, emit.as_deref(), jobs)?
             );
             Ok(())
         }

@@ -257,3 +257,66 @@ fn plan_of_a_branching_part_is_an_input_error() {
     crate::assert_input_error(&out, &["plan:", "branches", "z ≈"]);
     assert!(!dir.join("out/plan.json").exists());
 }
+
+/// Issue 19: a voxel run that cannot fit in the machine's memory (the issue's plate, 1000 ×
+/// 1000 × 50 mm at 0.25 mm: 3.2e9 voxels) is refused at once, before any planning, naming
+/// `thermal.voxel_mm` and the size that would fit; a run that fits shows its estimate first.
+#[test]
+fn a_run_too_big_for_the_machine_is_refused_at_once() {
+    let dir = crate::scratch("too_big");
+    std::fs::write(
+        dir.join("s.toml"),
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 100.0\n[thermal]\nmodel = \"voxel\"\n\
+         voxel_mm = 0.25\nplate_mm = [1000.0, 1000.0, 50.0]\n",
+    )
+    .unwrap();
+    let clock = std::time::Instant::now();
+    let o = crate::waamtwin(&[
+        "simulate",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    let took = clock.elapsed().as_secs_f64();
+    crate::assert_input_error(
+        &o,
+        &[
+            "s.toml",
+            "thermal.voxel_mm = 0.25",
+            "3.200e9 voxels",
+            "or more",
+        ],
+    );
+    assert!(took < 1.0, "{took} s");
+    assert!(!dir.join("out").join("manifest.json").exists());
+    // A small plate at 2 mm fits, and says what it will cost before it runs.
+    let dir = crate::scratch("fits_estimate");
+    std::fs::write(
+        dir.join("s.toml"),
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 20.0\nedge_mm = 2.5\n[planner]\nn_points = 40\n\
+         [thermal]\nmodel = \"voxel\"\nvoxel_mm = 2.0\nplate_mm = [60.0, 60.0, 6.0]\n\
+         [output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
+    )
+    .unwrap();
+    let o = crate::waamtwin(&[
+        "simulate",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("estimate: ") && err.contains("voxels") && err.contains("steps"),
+        "{err}"
+    );
+    // With less memory than that run asks, the same scenario is refused after planning.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+        .args(["simulate", dir.join("s.toml").to_str().unwrap(), "-o"])
+        .arg(dir.join("out2"))
+        .env("WAAMTWIN_MEMORY_BYTES", "100000")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("thermal.voxel_mm"));
+}

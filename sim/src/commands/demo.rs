@@ -28,7 +28,12 @@ pub fn demo(out: &Path) -> Result<()> {
     // Plan, simulate without dwells, plan the dwells, and simulate the dwelled path.
     println!(
         "{}",
-        super::dwell::plan_and_dwell(&scenario, &mut dir, super::dwell::Extras::default())?
+        super::dwell::plan_and_dwell(
+            &scenario,
+            "the demo scenario",
+            &mut dir,
+            super::dwell::Extras::default(),
+        )?
     );
     dir.finish("demo", scenario.to_json())?;
     Ok(())

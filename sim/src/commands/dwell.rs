@@ -27,17 +27,44 @@ pub struct Extras {
 
 pub fn run(scenario: &Path, out: &Path, extras: Extras) -> Result<String> {
     let s = Scenario::load(scenario)?;
+    let file = scenario.display().to_string();
+    super::cost::check_plate(&file, &s.thermal, &s.material, keeps(&s))?;
     let mut dir = RunDir::create(out)?;
-    let line = plan_and_dwell(&s, &mut dir, extras)?;
+    let line = plan_and_dwell(&s, &file, &mut dir, extras)?;
     dir.finish("dwell", s.to_json())?;
     Ok(line)
 }
 
+/// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
+/// the cache's cooled copies: about four models at once), about 2.5 builds' worth of search
+/// (docs/PERFORMANCE.md), the run without dwells and the one with them (dwells about double
+/// the build time).
+fn keeps(s: &Scenario) -> super::cost::Keeps {
+    super::cost::Keeps {
+        copies: 4.0,
+        frames: s.output.frames,
+        runs: 1.0 + 2.5 + 2.0,
+    }
+}
+
 /// Plan, simulate, plan the dwells and simulate the dwelled path, writing every file of the
 /// dwell command into `dir` (all but the manifest).
-pub fn plan_and_dwell(s: &Scenario, dir: &mut RunDir, extras: Extras) -> Result<String> {
+pub fn plan_and_dwell(
+    s: &Scenario,
+    file: &str,
+    dir: &mut RunDir,
+    extras: Extras,
+) -> Result<String> {
     let part = load_part(&s.part)?;
     let b = super::plan::build(s, &part)?;
+    super::cost::check(
+        file,
+        &s.thermal,
+        &s.material,
+        b.deposits(),
+        b.deposits().last().map_or(0.0, |d| d.time),
+        keeps(s),
+    )?;
     let before = heat(&b, &Cooling::default(), 0)?;
     let clock = Instant::now();
     let (plan, budget) = {

@@ -1,6 +1,7 @@
 //! `waamtwin simulate SCENARIO -o DIR`: plan, beads, and the heat of the build without dwells;
 //! thermal.json and layers.csv beside the plan's files.
 
+use crate::commands::cost::{Keeps, check, check_plate};
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
@@ -17,9 +18,24 @@ use thermal::{Cells, celsius};
 
 pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     let s = Scenario::load(scenario)?;
+    let file = scenario.display().to_string();
+    let keeps = Keeps {
+        copies: 1.0,
+        frames: s.output.frames,
+        runs: 1.0,
+    };
+    check_plate(&file, &s.thermal, &s.material, keeps)?;
     let part = load_part(&s.part)?;
     let mut dir = RunDir::create(out)?;
     let b = super::plan::build(&s, &part)?;
+    check(
+        &file,
+        &s.thermal,
+        &s.material,
+        b.deposits(),
+        b.deposits().last().map_or(0.0, |d| d.time),
+        keeps,
+    )?;
     let sim = heat(&b, &Cooling::default(), s.output.frames)?;
     super::plan::write_plan(&mut dir, &s, &b)?;
     write_thermal(&mut dir, &b, &sim)?;

@@ -25,8 +25,6 @@ use serde_json::Value;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-/// Cases run side by side: one per core of this machine's size.
-const PARALLEL_CASES: usize = 2;
 
 pub struct Case {
     pub id: String,
@@ -178,8 +176,12 @@ pub fn run(
     out: &Path,
     shard: Option<(usize, usize)>,
     emit: Option<&str>,
+    jobs: Option<usize>,
 ) -> Result<String> {
     let study = load(path)?;
+    if jobs == Some(0) {
+        return Err(Error::input("--jobs 0; expected at least 1"));
+    }
     std::fs::create_dir_all(out.join("cases"))
         .map_err(|e| Error::input(format!("{}: {e}", out.display())))?;
     if let Some(kind) = emit {
@@ -204,8 +206,13 @@ pub fn run(
     };
     let pending: Vec<&&Case> = mine.iter().filter(|c| !done(c)).collect();
     let skipped = mine.len() - pending.len();
+    let jobs = match jobs {
+        Some(j) => j,
+        None => default_jobs(&study)?,
+    }
+    .min(pending.len().max(1));
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(PARALLEL_CASES)
+        .num_threads(jobs)
         .build()
         .map_err(|e| Error::failure(e.to_string()))?;
     let results: Vec<Result<()>> = pool.install(|| {
@@ -223,6 +230,27 @@ pub fn run(
         pending.len(),
         study.cases.len()
     ))
+}
+
+/// Cases at once by default: one per core, fewer where the memory a case needs (the base
+/// scenario's plate-only estimate, ×4 for a dwell search's checkpoints, ×2 for the part's metal
+/// and the process) would not fit that many; the base's plate alone must fit once.
+fn default_jobs(study: &Study) -> Result<usize> {
+    let base = Scenario::parse(&study.base_text, &study.file, &study.base_dir)?;
+    let copies = if study.command == "dwell" { 4.0 } else { 1.0 };
+    let keeps = super::cost::Keeps {
+        copies,
+        frames: 0,
+        runs: 1.0,
+    };
+    super::cost::check_plate(&study.file, &base.thermal, &base.material, keeps)?;
+    let m = crate::pipeline::deposition::material(&base.material, &base.thermal);
+    let per_case = 2.0
+        * crate::pipeline::cost::estimate(&base.thermal, &m, &[], 0.0, copies, 0, 1).bytes;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let by_memory = super::cost::available_memory()
+        .map_or(cores, |avail| (avail / per_case.max(1.0)).floor() as usize);
+    Ok(cores.min(by_memory).max(1))
 }
 
 fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {

@@ -37,6 +37,7 @@
 pub mod arc_stops;
 pub mod beads;
 pub mod calibrate;
+pub mod cost;
 pub mod deposition;
 pub mod dwell;
 pub mod pace;

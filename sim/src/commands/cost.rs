@@ -1,0 +1,102 @@
+//! The cost of a heat run shown before it starts, and a run that cannot fit in this machine's
+//! available memory refused (exit 2) with the key to change and by how much (issue 19). The
+//! arithmetic is the engine's (`pipeline::cost`); this shell reads what the machine has.
+
+use crate::error::{Error, Result};
+use crate::pipeline::cost::{Estimate, bytes, estimate, voxel_to_fit};
+use crate::pipeline::deposition::material;
+use crate::pipeline::params::{Material, ThermalModel, ThermalSettings};
+use thermal::schedule::Deposit;
+
+/// Memory this machine can give a run now, bytes: Linux's MemAvailable (`/proc/meminfo`), or
+/// the `WAAMTWIN_MEMORY_BYTES` override (tests; a machine shared with other jobs). None
+/// elsewhere: the estimate is shown, nothing is refused. (The `sysinfo` crate would read it on
+/// every platform; one line of /proc is not worth its dependency tree.)
+pub fn available_memory() -> Option<f64> {
+    if let Some(v) = std::env::var("WAAMTWIN_MEMORY_BYTES")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+    {
+        return Some(v);
+    }
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    text.lines()
+        .find(|l| l.starts_with("MemAvailable:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse::<f64>()
+        .ok()
+        .map(|kb| kb * 1024.0)
+}
+
+/// What a command keeps besides the run itself.
+#[derive(Debug, Clone, Copy)]
+pub struct Keeps {
+    /// Copies of the model held at once (a dwell search keeps checkpoints to restart from).
+    pub copies: f64,
+    pub frames: usize,
+    /// Heat runs the command makes, in build times (a dwell search: about two and a half,
+    /// docs/PERFORMANCE.md, then the run with its dwells).
+    pub runs: f64,
+}
+
+/// Estimate the run, print the estimate on stderr, and refuse it where it cannot fit.
+pub fn check(
+    file: &str,
+    t: &ThermalSettings,
+    m: &Material,
+    deposits: &[Deposit],
+    build_s: f64,
+    keeps: Keeps,
+) -> Result<Estimate> {
+    let mut e = estimate(
+        t,
+        &material(m, t),
+        deposits,
+        build_s,
+        keeps.copies,
+        keeps.frames,
+        rayon::current_num_threads(),
+    );
+    e.seconds *= keeps.runs;
+    eprintln!("{}", e.line());
+    if let Some(avail) = available_memory()
+        && e.bytes > avail
+    {
+        return Err(refusal(file, t, &e, avail));
+    }
+    Ok(e)
+}
+
+/// Refuse a run whose plate alone cannot fit, before any planning (silently where it fits:
+/// the full estimate follows once the schedule is known).
+pub fn check_plate(file: &str, t: &ThermalSettings, m: &Material, keeps: Keeps) -> Result<()> {
+    let e = estimate(t, &material(m, t), &[], 0.0, keeps.copies, keeps.frames, 1);
+    match available_memory() {
+        Some(avail) if e.bytes > avail => Err(refusal(file, t, &e, avail)),
+        _ => Ok(()),
+    }
+}
+
+fn refusal(file: &str, t: &ThermalSettings, e: &Estimate, avail: f64) -> Error {
+    match t.model {
+        ThermalModel::Voxel => {
+            let dx = voxel_to_fit(t.voxel_m, e.bytes, avail) * 1e3;
+            Error::input(format!(
+                "{file}: thermal.voxel_mm = {} asks for {:.3e} voxels ({:.3e} of them the plate), about {}, and this machine has {} available; expected a run that fits: thermal.voxel_mm = {:.2} or more (memory goes as 1/voxel³), or a smaller thermal.plate_mm, or fewer output.frames",
+                t.voxel_m * 1e3,
+                e.cells,
+                e.plate_cells,
+                bytes(e.bytes),
+                bytes(avail),
+                (dx * 100.0).ceil() / 100.0
+            ))
+        }
+        ThermalModel::Fe => Error::input(format!(
+            "{file}: the thin-wall model asks for {:.3e} nodes, about {}, and this machine has {} available; expected a run that fits: a larger thermal.node_mm, or fewer output.frames",
+            e.cells,
+            bytes(e.bytes),
+            bytes(avail)
+        )),
+    }
+}

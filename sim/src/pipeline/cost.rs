@@ -1,0 +1,192 @@
+//! What a heat run will cost, known before it starts (issue 19): the voxel model's active cells
+//! (the plate's and the deposits' metal), its memory (bytes per active voxel, times the copies
+//! a command keeps, plus the field frames) and its time (explicit steps of the stable length
+//! over the build time, times the mean active set, at a rate per voxel-step measured on this
+//! machine's kind). The thin-wall model is small beside it: its nodes follow the path.
+//!
+//! Pure arithmetic on the schedule: no model is built, nothing is allocated for the cells, so a
+//! run too large for the machine is refused at once.
+
+use super::params::{ThermalModel, ThermalSettings};
+use thermal::schedule::Deposit;
+
+/// Bytes per active voxel: the index map (key, value and its spare room), the cell, six
+/// neighbours, six face weights, the areas, four f32 fields and the laid lists; measured as
+/// peak RSS over active voxels on the runs of docs/PERFORMANCE.md.
+pub const VOXEL_BYTES: f64 = 140.0;
+
+/// Nanoseconds per active voxel and explicit step on one thread (the kernel's 7-point update
+/// and losses), measured on this machine's kind (docs/PERFORMANCE.md, `cost` table).
+pub const VOXEL_NS_PER_STEP: f64 = 3.0;
+
+/// Bytes per thin-wall node, all it keeps (its matrices' rows included).
+pub const NODE_BYTES: f64 = 2_000.0;
+
+/// The estimate of one run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    pub model: ThermalModel,
+    /// Active cells at the end (voxels, or thin-wall nodes).
+    pub cells: f64,
+    pub plate_cells: f64,
+    /// Explicit steps (voxels), or deposits (thin wall).
+    pub steps: f64,
+    pub bytes: f64,
+    pub seconds: f64,
+}
+
+impl Estimate {
+    /// A line for the terminal.
+    pub fn line(&self) -> String {
+        let what = match self.model {
+            ThermalModel::Voxel => "voxels",
+            ThermalModel::Fe => "thin-wall nodes",
+        };
+        format!(
+            "estimate: {:.3e} {what} ({:.3e} of them the plate), {:.3e} steps, {}, about {}",
+            self.cells,
+            self.plate_cells,
+            self.steps,
+            bytes(self.bytes),
+            duration(self.seconds)
+        )
+    }
+}
+
+/// The estimate of a run of `deposits` over `build_s` seconds on the model `t` names, keeping
+/// `copies` of the model (a dwell search keeps checkpoints) and `frames` field frames, on
+/// `threads` threads.
+pub fn estimate(
+    t: &ThermalSettings,
+    m: &thermal::material::Material,
+    deposits: &[Deposit],
+    build_s: f64,
+    copies: f64,
+    frames: usize,
+    threads: usize,
+) -> Estimate {
+    match t.model {
+        ThermalModel::Voxel => {
+            let dx = t.voxel_m;
+            let [px, py, pz] = t.plate_m;
+            let disc = if t.plate_disc {
+                std::f64::consts::FRAC_PI_4
+            } else {
+                1.0
+            };
+            let plate = (px / dx).ceil() * (py / dx).ceil() * (pz / dx).ceil() * disc;
+            let metal: f64 = deposits
+                .iter()
+                .enumerate()
+                .map(|(i, d)| {
+                    let start = thermal::schedule::segment_start(deposits, i);
+                    let len = (0..3)
+                        .map(|k| (d.position[k] - start[k]).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    d.width * d.height * (len + dx)
+                })
+                .sum::<f64>()
+                / dx.powi(3);
+            let cells = plate + metal;
+            let steps = build_s / stable_step(m, dx);
+            let mean = plate + metal / 2.0;
+            Estimate {
+                model: t.model,
+                cells,
+                plate_cells: plate,
+                steps,
+                bytes: cells * (VOXEL_BYTES * copies + 4.0 * frames as f64),
+                seconds: steps * mean * VOXEL_NS_PER_STEP * 1e-9 / speedup(threads),
+            }
+        }
+        ThermalModel::Fe => {
+            let nodes = deposits.len() as f64 * 4.0;
+            Estimate {
+                model: t.model,
+                cells: nodes,
+                plate_cells: 0.0,
+                steps: deposits.len() as f64,
+                bytes: nodes * (NODE_BYTES * copies + 8.0 * frames as f64),
+                seconds: 0.0,
+            }
+        }
+    }
+}
+
+/// The voxel model's stable explicit step (its `stable_step`: ρ·c_min·dx²/(6·k_max) times the
+/// 0.9 margin), without building it.
+pub fn stable_step(m: &thermal::material::Material, dx: f64) -> f64 {
+    let (mut cmin, mut kmax) = (f64::INFINITY, 0.0f64);
+    for t in (250..3500).step_by(10) {
+        cmin = cmin.min(m.apparent_heat(t as f64));
+        kmax = kmax.max(m.conductivity(t as f64));
+    }
+    0.9 * m.density * cmin * dx * dx / (6.0 * kmax)
+}
+
+/// The kernel's speed-up on n threads, measured: 1.7 on 2 (docs/PERFORMANCE.md); beyond, the
+/// issue's 16-core figures (3.1 on 16), interpolated on log₂ n.
+pub fn speedup(threads: usize) -> f64 {
+    let n = threads.max(1) as f64;
+    match n {
+        n if n <= 1.0 => 1.0,
+        n if n <= 2.0 => 1.0 + 0.7 * (n - 1.0),
+        n => (1.7 + (3.1 - 1.7) * (n.log2() - 1.0) / 3.0).min(3.1),
+    }
+}
+
+/// What `bytes` say in words.
+pub fn bytes(b: f64) -> String {
+    match b {
+        b if b >= 1e12 => format!("{:.1} TB", b / 1e12),
+        b if b >= 1e9 => format!("{:.1} GB", b / 1e9),
+        b if b >= 1e6 => format!("{:.0} MB", b / 1e6),
+        b => format!("{:.0} kB", b / 1e3),
+    }
+}
+
+fn duration(s: f64) -> String {
+    match s {
+        s if s >= 86_400.0 => format!("{:.1} days", s / 86_400.0),
+        s if s >= 3600.0 => format!("{:.1} h", s / 3600.0),
+        s if s >= 60.0 => format!("{:.1} min", s / 60.0),
+        s => format!("{s:.0} s"),
+    }
+}
+
+/// The voxel edge that would bring `bytes` under `available`: memory goes as 1/dx³.
+pub fn voxel_to_fit(voxel_m: f64, bytes: f64, available: f64) -> f64 {
+    voxel_m * (bytes / available).cbrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The issue's plate, 1000 × 1000 × 50 mm at 0.25 mm: 3.2e9 voxels, far past any memory.
+    #[test]
+    fn the_plate_of_the_issue() {
+        let t = ThermalSettings {
+            model: ThermalModel::Voxel,
+            voxel_m: 0.25e-3,
+            plate_m: [1.0, 1.0, 0.05],
+            plate_disc: false,
+            ..crate::scenario::Scenario::parse(
+                "[part]\nshape = \"hemisphere\"\nradius_mm = 20\n",
+                "t.toml",
+                std::path::Path::new("."),
+            )
+            .unwrap()
+            .thermal
+        };
+        let m = thermal::material::Material::g3si();
+        let e = estimate(&t, &m, &[], 100.0, 1.0, 0, 2);
+        assert!((e.cells - 3.2e9).abs() < 1e6, "{}", e.cells);
+        assert!(e.bytes > 4e11);
+        // 0.25 mm × (bytes / 20 GB)^(1/3).
+        let dx = voxel_to_fit(t.voxel_m, e.bytes, 20e9);
+        assert!((dx / 0.25e-3 - (e.bytes / 20e9).cbrt()).abs() < 1e-12);
+        assert!(speedup(2) == 1.7 && speedup(16) == 3.1 && speedup(1) == 1.0);
+    }
+}
