@@ -24,6 +24,8 @@ fn main() {
             length_mm: 80.0,
             max_rotation_deg: 30.0,
             rotation_rate_deg_mm: 2.0,
+            tube_radius_mm: 0.0,
+            arm: None,
         },
         torch: planner::frame::Torch::default(),
     };

@@ -4,7 +4,10 @@
 //! rotating the tool about the direction of travel t (the bead keeps its build direction; the
 //! torch leans sideways) by the smallest angle that frees it, up to `max_rotation_deg`; the
 //! rotation is ramped in and out along the path at `rotation_rate_deg_mm` at most, so that the
-//! robot's wrist turns no faster; what is still hit after that is reported unresolved.
+//! robot's wrist turns no faster; what is still hit after that is reported unresolved. The
+//! metal laid is a tube of radius R_tube along the path (its points, the cylinders widened by
+//! R_tube); the arm (the torch body and the robot's wrist) is a second, wider cylinder further
+//! up the tool axis.
 
 use nalgebra::{Point3, Rotation3, Unit, Vector3};
 use std::collections::HashMap;
@@ -19,6 +22,39 @@ pub struct Nozzle {
     pub max_rotation_deg: f64,
     /// Fastest change of that rotation along the path, degrees per mm.
     pub rotation_rate_deg_mm: f64,
+    /// R_tube: the metal laid as a tube of this radius along the path (0: its points).
+    pub tube_radius_mm: f64,
+    /// The arm behind the nozzle, if checked.
+    pub arm: Option<Arm>,
+}
+
+/// The arm: a cylinder on the tool axis beyond the nozzle, mm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Arm {
+    pub radius_mm: f64,
+    /// Where it starts along the tool axis, from the deposit.
+    pub from_mm: f64,
+    pub length_mm: f64,
+}
+
+impl Nozzle {
+    /// The cylinders on the tool axis: (from, to, radius) along it from the deposit, widened by
+    /// R_tube.
+    fn cylinders(&self) -> Vec<(f64, f64, f64)> {
+        let mut c = vec![(
+            self.standoff_mm,
+            self.standoff_mm + self.length_mm,
+            self.radius_mm + self.tube_radius_mm,
+        )];
+        if let Some(a) = self.arm {
+            c.push((
+                a.from_mm,
+                a.from_mm + a.length_mm,
+                a.radius_mm + self.tube_radius_mm,
+            ));
+        }
+        c
+    }
 }
 
 /// Collisions found and what was done with them.
@@ -41,9 +77,10 @@ struct Deposited<'a> {
 
 impl<'a> Deposited<'a> {
     fn new(points: &'a [Point3<f64>], nozzle: &Nozzle) -> Self {
+        let widest = nozzle.cylinders().iter().map(|c| c.2).fold(0.0, f64::max);
         Deposited {
             points,
-            cell: nozzle.radius_mm.max(1.0),
+            cell: widest.max(1.0),
             grid: HashMap::new(),
         }
     }
@@ -57,31 +94,27 @@ impl<'a> Deposited<'a> {
         self.grid.entry(k).or_default().push(i as u32);
     }
 
-    /// Whether the nozzle at `p` on the unit axis `b` contains a deposited point.
+    /// Whether the nozzle (or the arm) at `p` on the unit axis `b` contains a deposited point.
     fn hits(&self, p: &Point3<f64>, b: &Vector3<f64>, nozzle: &Nozzle) -> bool {
-        let steps = (nozzle.length_mm / self.cell).ceil() as usize + 1;
-        for s in 0..=steps {
-            let a = nozzle.standoff_mm + nozzle.length_mm * s as f64 / steps as f64;
-            let c = self.key(&(p + b * a));
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        let cell = self.grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]);
-                        for &j in cell.into_iter().flatten() {
-                            let q = self.points[j as usize] - p;
-                            let along = q.dot(b);
-                            if along >= nozzle.standoff_mm
-                                && along <= nozzle.standoff_mm + nozzle.length_mm
-                                && (q - b * along).norm() < nozzle.radius_mm
-                            {
-                                return true;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        false
+        nozzle.cylinders().into_iter().any(|(from, to, radius)| {
+            let steps = ((to - from) / self.cell).ceil() as usize + 1;
+            (0..=steps).any(|s| {
+                let a = from + (to - from) * s as f64 / steps as f64;
+                let c = self.key(&(p + b * a));
+                (-1..=1).any(|dx| {
+                    (-1..=1).any(|dy| {
+                        (-1..=1).any(|dz| {
+                            let cell = self.grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]);
+                            cell.into_iter().flatten().any(|&j| {
+                                let q = self.points[j as usize] - p;
+                                let along = q.dot(b);
+                                along >= from && along <= to && (q - b * along).norm() < radius
+                            })
+                        })
+                    })
+                })
+            })
+        })
     }
 }
 
@@ -191,6 +224,8 @@ mod tests {
             length_mm: 80.0,
             max_rotation_deg: 45.0,
             rotation_rate_deg_mm: 5.0,
+            tube_radius_mm: 0.0,
+            arm: None,
         }
     }
 
@@ -206,6 +241,34 @@ mod tests {
         let mut away = tools.clone();
         away[20] = -Vector3::z();
         assert!(detect(&pts, &away, &n).is_empty());
+    }
+
+    /// The metal as a tube: a point 11 mm off the nozzle's axis misses a nozzle of radius 10,
+    /// and meets it once the metal is a tube of radius 2. The arm: metal 150 mm up the axis and
+    /// 30 mm off it misses the nozzle (it ends at 92 mm), and hits an arm of radius 40 from 100
+    /// to 300 mm.
+    #[test]
+    fn the_tube_and_the_arm() {
+        let n = nozzle();
+        let pts = vec![Point3::new(11.0, 0.0, 50.0), Point3::new(0.0, 0.0, 0.0)];
+        let tools = vec![Vector3::z(); 2];
+        assert!(detect(&pts, &tools, &n).is_empty());
+        let tube = Nozzle {
+            tube_radius_mm: 2.0,
+            ..n
+        };
+        assert_eq!(detect(&pts, &tools, &tube), vec![1]);
+        let far = vec![Point3::new(30.0, 0.0, 150.0), Point3::new(0.0, 0.0, 0.0)];
+        assert!(detect(&far, &tools, &n).is_empty());
+        let arm = Nozzle {
+            arm: Some(Arm {
+                radius_mm: 40.0,
+                from_mm: 100.0,
+                length_mm: 200.0,
+            }),
+            ..n
+        };
+        assert_eq!(detect(&far, &tools, &arm), vec![1]);
     }
 
     /// A row of metal 40 mm above and 8 mm beside a row being laid, the torch straight up: the

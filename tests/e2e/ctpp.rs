@@ -20,6 +20,8 @@ pub fn params(n_points: usize) -> PlanParams {
             length_mm: 80.0,
             max_rotation_deg: 30.0,
             rotation_rate_deg_mm: 2.0,
+            tube_radius_mm: 0.0,
+            arm: None,
         },
         torch: planner::frame::Torch::default(),
     }
@@ -402,12 +404,17 @@ fn nozzle_collisions_on_a_dome_are_turned_away() {
     let turn = c["max_rotation_deg"].as_f64().unwrap();
     assert!(turn > 0.0 && turn <= 30.0);
 
-    // A nozzle of 16 mm across (radius 8): every collision resolved, the last ones next to the
-    // closing point.
+    // A nozzle of 16 mm across (radius 8), the metal a tube of 2.5 mm (half a 5 mm bead) and
+    // the torch body an arm of radius 40 from 92 mm up the axis: every collision resolved, the
+    // last ones next to the closing point.
     let slim = crate::run_scenario(
         "collisions_dome_slim",
         "plan",
-        &scenario(30.0).replace("n_points = 60\n", "n_points = 60\nnozzle_radius_mm = 8.0\n"),
+        &scenario(30.0).replace(
+            "n_points = 60\n",
+            "n_points = 60\nnozzle_radius_mm = 8.0\ndeposit_tube_radius_mm = 2.5\n\
+             arm_radius_mm = 40.0\narm_from_mm = 92.0\n",
+        ),
     );
     let plan: serde_json::Value =
         serde_json::from_slice(&std::fs::read(slim.join("plan.json")).unwrap()).unwrap();

@@ -26,12 +26,16 @@ pub struct WeldStats {
 pub fn weld(mesh: TriMesh) -> (TriMesh, WeldStats) {
     let diag = mesh.diagonal();
     let tol = (diag * WELD_RELATIVE_TOLERANCE).max(f64::MIN_POSITIVE);
-    let cell = |x: f64| (x / tol).floor() as i64;
+    // Cells counted from the box's low corner, so a cell index stays within 1/tolerance (1e7)
+    // whatever the coordinates; a box of no size (one point) is one cell. The fuzzer found
+    // `x / tol` saturating i64 and the neighbour's index overflowing.
+    let (lo, _) = mesh.bounding_box();
+    let cell = |x: f64, o: f64| ((x - o) / tol).floor().clamp(-1e15, 1e15) as i64;
     let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
     let mut remap = Vec::with_capacity(mesh.positions.len());
     let mut out: Vec<nalgebra::Point3<f64>> = Vec::new();
     for p in &mesh.positions {
-        let c = [cell(p.x), cell(p.y), cell(p.z)];
+        let c = [cell(p.x, lo.x), cell(p.y, lo.y), cell(p.z, lo.z)];
         let mut found = None;
         'search: for dx in -1..=1 {
             for dy in -1..=1 {

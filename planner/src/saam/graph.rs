@@ -137,9 +137,11 @@ impl fmt::Display for SkeletonError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             SkeletonError::Empty => write!(f, "no polyline; expected `l` lines joining vertices"),
-            SkeletonError::NotFinite { vertex } => {
-                write!(f, "vertex {} is not finite", vertex + 1)
-            }
+            SkeletonError::NotFinite { vertex } => write!(
+                f,
+                "vertex {} is not a finite coordinate within ±1e6 mm",
+                vertex + 1
+            ),
             SkeletonError::ZeroLength { polyline, segment } => write!(
                 f,
                 "polyline {} segment {} has zero length; expected distinct consecutive vertices",

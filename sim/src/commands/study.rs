@@ -25,7 +25,6 @@ use serde_json::Value;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-
 pub struct Case {
     pub id: String,
     pub overrides: Vec<(String, toml::Value)>,
@@ -245,8 +244,8 @@ fn default_jobs(study: &Study) -> Result<usize> {
     };
     super::cost::check_plate(&study.file, &base.thermal, &base.material, keeps)?;
     let m = crate::pipeline::deposition::material(&base.material, &base.thermal);
-    let per_case = 2.0
-        * crate::pipeline::cost::estimate(&base.thermal, &m, &[], 0.0, copies, 0, 1).bytes;
+    let per_case =
+        2.0 * crate::pipeline::cost::estimate(&base.thermal, &m, &[], 0.0, copies, 0, 1).bytes;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let by_memory = super::cost::available_memory()
         .map_or(cores, |avail| (avail / per_case.max(1.0)).floor() as usize);

@@ -12,12 +12,18 @@ use thermal::schedule::Deposit;
 
 /// Bytes per active voxel: the index map (key, value and its spare room), the cell, six
 /// neighbours, six face weights, the areas, four f32 fields and the laid lists; measured as
-/// peak RSS over active voxels on the runs of docs/PERFORMANCE.md.
+/// (peak RSS − [`BASE_BYTES`]) over active voxels, 143 B on the cylinder of docs/PERFORMANCE.md.
 pub const VOXEL_BYTES: f64 = 140.0;
 
+/// What the process holds besides the model (the binary, the part, the plan), bytes: the peak
+/// RSS of a run of a few thousand voxels.
+pub const BASE_BYTES: f64 = 12e6;
+
 /// Nanoseconds per active voxel and explicit step on one thread (the kernel's 7-point update
-/// and losses), measured on this machine's kind (docs/PERFORMANCE.md, `cost` table).
-pub const VOXEL_NS_PER_STEP: f64 = 3.0;
+/// and losses), and the time every step costs besides (the source, the ledger, the readings),
+/// fitted to three runs on this machine's kind (docs/PERFORMANCE.md, "Cost estimates").
+pub const VOXEL_NS_PER_STEP: f64 = 3.2;
+pub const STEP_OVERHEAD_S: f64 = 6.8e-5;
 
 /// Bytes per thin-wall node, all it keeps (its matrices' rows included).
 pub const NODE_BYTES: f64 = 2_000.0;
@@ -96,8 +102,11 @@ pub fn estimate(
                 cells,
                 plate_cells: plate,
                 steps,
-                bytes: cells * (VOXEL_BYTES * copies + 4.0 * frames as f64),
-                seconds: steps * mean * VOXEL_NS_PER_STEP * 1e-9 / speedup(threads),
+                bytes: BASE_BYTES
+                    + cells * VOXEL_BYTES * copies
+                    + frame_bytes(deposits.len(), frames),
+                seconds: steps * (STEP_OVERHEAD_S + mean * VOXEL_NS_PER_STEP * 1e-9)
+                    / speedup(threads),
             }
         }
         ThermalModel::Fe => {
@@ -107,11 +116,20 @@ pub fn estimate(
                 cells: nodes,
                 plate_cells: 0.0,
                 steps: deposits.len() as f64,
-                bytes: nodes * (NODE_BYTES * copies + 8.0 * frames as f64),
+                bytes: BASE_BYTES
+                    + nodes * NODE_BYTES * copies
+                    + frame_bytes(deposits.len(), frames),
                 seconds: 0.0,
             }
         }
     }
+}
+
+/// The field frames kept: one temperature per deposit per frame (f64), the frames bounded as
+/// [`super::frame_times`] bounds them.
+fn frame_bytes(deposits: usize, frames: usize) -> f64 {
+    let n = frames.min(super::FIELD_BUDGET / deposits.max(1));
+    8.0 * (n * deposits) as f64
 }
 
 /// The voxel model's stable explicit step (its `stable_step`: ρ·c_min·dx²/(6·k_max) times the
@@ -151,7 +169,8 @@ fn duration(s: f64) -> String {
         s if s >= 86_400.0 => format!("{:.1} days", s / 86_400.0),
         s if s >= 3600.0 => format!("{:.1} h", s / 3600.0),
         s if s >= 60.0 => format!("{:.1} min", s / 60.0),
-        s => format!("{s:.0} s"),
+        s if s >= 10.0 => format!("{s:.0} s"),
+        s => format!("{s:.1} s"),
     }
 }
 
@@ -183,7 +202,7 @@ mod tests {
         let m = thermal::material::Material::g3si();
         let e = estimate(&t, &m, &[], 100.0, 1.0, 0, 2);
         assert!((e.cells - 3.2e9).abs() < 1e6, "{}", e.cells);
-        assert!(e.bytes > 4e11);
+        assert!(e.bytes > 4e11 && e.bytes < 5e11, "{}", e.bytes);
         // 0.25 mm × (bytes / 20 GB)^(1/3).
         let dx = voxel_to_fit(t.voxel_m, e.bytes, 20e9);
         assert!((dx / 0.25e-3 - (e.bytes / 20e9).cbrt()).abs() < 1e-12);

@@ -578,6 +578,31 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
         pl.nozzle_rotation_rate_deg_mm,
         360.0,
     )?;
+    c.range(
+        "planner",
+        "deposit_tube_radius_mm",
+        pl.deposit_tube_radius_mm,
+        0.0,
+        50.0,
+        "between 0 and 50",
+    )?;
+    c.range(
+        "planner",
+        "arm_radius_mm",
+        pl.arm_radius_mm,
+        0.0,
+        1000.0,
+        "between 0 (no arm) and 1000",
+    )?;
+    c.range(
+        "planner",
+        "arm_from_mm",
+        pl.arm_from_mm,
+        0.0,
+        5000.0,
+        "between 0 and 5000",
+    )?;
+    c.positive("planner", "arm_length_mm", pl.arm_length_mm, 5000.0)?;
     for (key, v) in [
         ("torch_lead_deg", pl.torch_lead_deg),
         ("torch_side_deg", pl.torch_side_deg),
@@ -600,6 +625,12 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
             length_mm: pl.nozzle_length_mm,
             max_rotation_deg: pl.nozzle_max_rotation_deg,
             rotation_rate_deg_mm: pl.nozzle_rotation_rate_deg_mm,
+            tube_radius_mm: pl.deposit_tube_radius_mm,
+            arm: (pl.arm_radius_mm > 0.0).then_some(planner::collision::Arm {
+                radius_mm: pl.arm_radius_mm,
+                from_mm: pl.arm_from_mm,
+                length_mm: pl.arm_length_mm,
+            }),
         },
         torch: planner::frame::Torch {
             lead_deg: pl.torch_lead_deg,

@@ -349,6 +349,13 @@ pub struct RawPlanner {
     pub nozzle_max_rotation_deg: f64,
     /// The fastest that turn changes along the path.
     pub nozzle_rotation_rate_deg_mm: f64,
+    /// R_tube of the collision check: the metal laid as a tube of this radius (0: its points).
+    pub deposit_tube_radius_mm: f64,
+    /// The arm (torch body, wrist) as a cylinder beyond the nozzle: radius (0: not checked),
+    /// where it starts along the tool axis from the deposit, and its length.
+    pub arm_radius_mm: f64,
+    pub arm_from_mm: f64,
+    pub arm_length_mm: f64,
     /// Chalvin et al. 2019 Fig. 10: θ_n, the torch tilted from the build direction in the
     /// feeding plane (positive pushes), and θ_t, square to it (positive to the left of the
     /// travel), degrees.
@@ -369,6 +376,10 @@ impl Default for RawPlanner {
             nozzle_length_mm: 80.0,
             nozzle_max_rotation_deg: 30.0,
             nozzle_rotation_rate_deg_mm: 2.0,
+            deposit_tube_radius_mm: 0.0,
+            arm_radius_mm: 0.0,
+            arm_from_mm: 92.0,
+            arm_length_mm: 200.0,
             torch_lead_deg: 0.0,
             torch_side_deg: 0.0,
             tool_rate_max_deg_mm: 30.0,
