@@ -9,13 +9,8 @@ use std::path::Path;
 /// Largest mesh file read (1 GiB): beyond it a part is not a thin-wall mid-surface.
 const MAX_MESH_BYTES: u64 = 1 << 30;
 
-pub fn read_mesh_file(path: &Path) -> Result<TriMesh> {
-    let name = path.display().to_string();
-    let format = MeshFormat::from_extension(&name).ok_or_else(|| {
-        Error::input(format!(
-            "{name}: unknown mesh extension; expected .stl, .obj or .ply"
-        ))
-    })?;
+/// A part file's bytes, refused beyond [`MAX_MESH_BYTES`] before it is read.
+fn read_capped(path: &Path, name: &str) -> Result<Vec<u8>> {
     let len = std::fs::metadata(path)
         .map_err(|e| Error::input(format!("{name}: {e}")))?
         .len();
@@ -24,7 +19,17 @@ pub fn read_mesh_file(path: &Path) -> Result<TriMesh> {
             "{name}: file is {len} bytes; expected at most {MAX_MESH_BYTES}"
         )));
     }
-    let bytes = std::fs::read(path).map_err(|e| Error::input(format!("{name}: {e}")))?;
+    std::fs::read(path).map_err(|e| Error::input(format!("{name}: {e}")))
+}
+
+pub fn read_mesh_file(path: &Path) -> Result<TriMesh> {
+    let name = path.display().to_string();
+    let format = MeshFormat::from_extension(&name).ok_or_else(|| {
+        Error::input(format!(
+            "{name}: unknown mesh extension; expected .stl, .obj or .ply"
+        ))
+    })?;
+    let bytes = read_capped(path, &name)?;
     let mesh = read_mesh(&bytes, format).map_err(|e| Error::input(format!("{name}: {e}")))?;
     if mesh.faces.is_empty()
         && format == MeshFormat::Obj
@@ -54,15 +59,7 @@ pub fn load_skeleton(
             "{name}: a skeleton is read from an OBJ's `l` lines; expected a .obj file"
         )));
     }
-    let len = std::fs::metadata(path)
-        .map_err(|e| Error::input(format!("{name}: {e}")))?
-        .len();
-    if len > MAX_MESH_BYTES {
-        return Err(Error::input(format!(
-            "{name}: file is {len} bytes; expected at most {MAX_MESH_BYTES}"
-        )));
-    }
-    let bytes = std::fs::read(path).map_err(|e| Error::input(format!("{name}: {e}")))?;
+    let bytes = read_capped(path, &name)?;
     let planner::io::Polylines { vertices, lines } = planner::io::read_obj_polylines(&bytes)
         .map_err(|e| Error::input(format!("{name}: {e}")))?;
     for (key, n) in [

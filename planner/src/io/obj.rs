@@ -16,34 +16,9 @@ pub fn read_obj(bytes: &[u8]) -> Result<TriMesh, FormatError> {
         let ln = i + 1;
         let mut toks = line.split_whitespace();
         match toks.next() {
-            Some("v") => {
-                let x = parse_f64(F, ln, toks.next(), "vertex x")?;
-                let y = parse_f64(F, ln, toks.next(), "vertex y")?;
-                let z = parse_f64(F, ln, toks.next(), "vertex z")?;
-                positions.push(Point3::new(x, y, z));
-            }
+            Some("v") => positions.push(vertex(ln, &mut toks)?),
             Some("f") => {
-                let mut poly = Vec::new();
-                for tok in toks {
-                    let idx = tok.split('/').next().unwrap_or("");
-                    let k: i64 = idx.parse().map_err(|_| {
-                        FormatError::at_line(
-                            F,
-                            ln,
-                            format!("face index '{tok}'; expected an integer"),
-                        )
-                    })?;
-                    let n = positions.len() as i64;
-                    let v = if k > 0 { k - 1 } else { n + k };
-                    if k == 0 || v < 0 || v >= n {
-                        return Err(FormatError::at_line(
-                            F,
-                            ln,
-                            format!("face index {k} refers to no vertex ({n} defined so far)"),
-                        ));
-                    }
-                    poly.push(v as u32);
-                }
+                let poly = indices(ln, toks, positions.len(), "face")?;
                 if poly.len() < 3 {
                     return Err(FormatError::at_line(
                         F,
@@ -72,34 +47,9 @@ pub fn read_obj_polylines(bytes: &[u8]) -> Result<Polylines, FormatError> {
         let ln = i + 1;
         let mut toks = line.split_whitespace();
         match toks.next() {
-            Some("v") => {
-                let x = parse_f64(F, ln, toks.next(), "vertex x")?;
-                let y = parse_f64(F, ln, toks.next(), "vertex y")?;
-                let z = parse_f64(F, ln, toks.next(), "vertex z")?;
-                positions.push(Point3::new(x, y, z));
-            }
+            Some("v") => positions.push(vertex(ln, &mut toks)?),
             Some("l") => {
-                let mut poly = Vec::new();
-                for tok in toks {
-                    let idx = tok.split('/').next().unwrap_or("");
-                    let k: i64 = idx.parse().map_err(|_| {
-                        FormatError::at_line(
-                            F,
-                            ln,
-                            format!("line index '{tok}'; expected an integer"),
-                        )
-                    })?;
-                    let n = positions.len() as i64;
-                    let v = if k > 0 { k - 1 } else { n + k };
-                    if k == 0 || v < 0 || v >= n {
-                        return Err(FormatError::at_line(
-                            F,
-                            ln,
-                            format!("line index {k} refers to no vertex ({n} defined so far)"),
-                        ));
-                    }
-                    poly.push(v as u32);
-                }
+                let poly = indices(ln, toks, positions.len(), "line")?;
                 if poly.len() < 2 {
                     return Err(FormatError::at_line(
                         F,
@@ -123,6 +73,44 @@ pub fn read_obj_polylines(bytes: &[u8]) -> Result<Polylines, FormatError> {
 pub struct Polylines {
     pub vertices: Vec<Point3<f64>>,
     pub lines: Vec<Vec<u32>>,
+}
+
+/// A `v x y z` record's point.
+fn vertex<'a>(
+    ln: usize,
+    toks: &mut impl Iterator<Item = &'a str>,
+) -> Result<Point3<f64>, FormatError> {
+    let x = parse_f64(F, ln, toks.next(), "vertex x")?;
+    let y = parse_f64(F, ln, toks.next(), "vertex y")?;
+    let z = parse_f64(F, ln, toks.next(), "vertex z")?;
+    Ok(Point3::new(x, y, z))
+}
+
+/// A record's vertex indices (1-based, negative relative to the `n` vertices so far, `a/t/n`
+/// forms), 0-based.
+fn indices<'a>(
+    ln: usize,
+    toks: impl Iterator<Item = &'a str>,
+    n: usize,
+    what: &str,
+) -> Result<Vec<u32>, FormatError> {
+    toks.map(|tok| {
+        let idx = tok.split('/').next().unwrap_or("");
+        let k: i64 = idx.parse().map_err(|_| {
+            FormatError::at_line(F, ln, format!("{what} index '{tok}'; expected an integer"))
+        })?;
+        let n = n as i64;
+        let v = if k > 0 { k - 1 } else { n + k };
+        if k == 0 || v < 0 || v >= n {
+            return Err(FormatError::at_line(
+                F,
+                ln,
+                format!("{what} index {k} refers to no vertex ({n} defined so far)"),
+            ));
+        }
+        Ok(v as u32)
+    })
+    .collect()
 }
 
 pub fn write_obj(mesh: &TriMesh) -> Vec<u8> {

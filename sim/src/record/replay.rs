@@ -9,12 +9,8 @@ use super::rerun_layout::{Node, view};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
 use crate::pipeline::replay::Sample;
-use mcap::records::{MessageHeader, Metadata};
-use mcap::{Compression, WriteOptions};
 use serde_json::json;
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufWriter;
 
 const TIMELINE: &str = "sim_time";
 
@@ -124,15 +120,6 @@ fn rrd(
 }
 
 fn mcap(dir: &mut RunDir, title: &str, probes: &[ProbeSeries]) -> Result<()> {
-    let e = fail("run.mcap");
-    let staged = dir.stage("run.mcap");
-    let file = File::create(&staged).map_err(|x| e(x.to_string()))?;
-    let mut w = WriteOptions::new()
-        .compression(Some(Compression::Zstd))
-        .profile("")
-        .library(concat!("waamtwin ", env!("CARGO_PKG_VERSION")))
-        .create(BufWriter::new(file))
-        .map_err(|x| e(x.to_string()))?;
     let schema = json!({
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": "waamtwin.ProbeSample",
@@ -145,21 +132,6 @@ fn mcap(dir: &mut RunDir, title: &str, probes: &[ProbeSeries]) -> Result<()> {
         },
         "required": ["probe", "t_s", "measured_c", "predicted_c"],
     });
-    let text = serde_json::to_vec(&schema).map_err(|x| e(x.to_string()))?;
-    let id = w
-        .add_schema("waamtwin.ProbeSample", "jsonschema", &text)
-        .map_err(|x| e(x.to_string()))?;
-    let channel = w
-        .add_channel(id, "/probes", "json", &BTreeMap::new())
-        .map_err(|x| e(x.to_string()))?;
-    w.write_metadata(&Metadata {
-        name: "replay".into(),
-        metadata: BTreeMap::from([
-            ("title".to_string(), title.to_string()),
-            ("units".to_string(), "temperature °C, time s".to_string()),
-        ]),
-    })
-    .map_err(|x| e(x.to_string()))?;
     // Every sample of every probe, in time order (MCAP readers expect log-time order).
     let mut all: Vec<(f64, usize, usize)> = probes
         .iter()
@@ -167,21 +139,26 @@ fn mcap(dir: &mut RunDir, title: &str, probes: &[ProbeSeries]) -> Result<()> {
         .flat_map(|(k, p)| p.samples.iter().enumerate().map(move |(j, s)| (s.0, k, j)))
         .collect();
     all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    for (sequence, (t, k, j)) in all.into_iter().enumerate() {
+    let messages = all.into_iter().map(|(t, k, j)| {
         let (_, m, p) = probes[k].samples[j];
-        let msg = json!({"probe": probes[k].name, "t_s": t, "measured_c": m, "predicted_c": p});
-        let data = serde_json::to_vec(&msg).map_err(|x| e(x.to_string()))?;
-        let ns = (t.max(0.0) * 1e9).round() as u64;
-        let header = MessageHeader {
-            channel_id: channel,
-            sequence: sequence as u32,
-            log_time: ns,
-            publish_time: ns,
-        };
-        w.write_to_known_channel(&header, &data)
-            .map_err(|x| e(x.to_string()))?;
-    }
-    w.finish().map_err(|x| e(x.to_string()))?;
-    drop(w);
-    dir.commit(&staged, "run.mcap").map(|_| ())
+        (
+            t,
+            json!({"probe": probes[k].name, "t_s": t, "measured_c": m, "predicted_c": p}),
+        )
+    });
+    super::mcap_json::write(
+        dir,
+        "run.mcap",
+        super::mcap_json::Topic {
+            schema_name: "waamtwin.ProbeSample",
+            schema,
+            topic: "/probes",
+            metadata_name: "replay",
+            metadata: BTreeMap::from([
+                ("title".to_string(), title.to_string()),
+                ("units".to_string(), "temperature °C, time s".to_string()),
+            ]),
+        },
+        messages,
+    )
 }

@@ -8,12 +8,8 @@
 use super::rerun_layout::{Node, view};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
-use mcap::records::{MessageHeader, Metadata};
-use mcap::{Compression, WriteOptions};
 use serde_json::json;
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufWriter;
 
 const TIMELINE: &str = "sim_time";
 /// The torch arrow's length, mm.
@@ -142,15 +138,6 @@ fn rrd(
 }
 
 fn mcap(dir: &mut RunDir, title: &str, drops: &[DropView]) -> Result<()> {
-    let e = fail("run.mcap");
-    let staged = dir.stage("run.mcap");
-    let file = File::create(&staged).map_err(|x| e(x.to_string()))?;
-    let mut w = WriteOptions::new()
-        .compression(Some(Compression::Zstd))
-        .profile("")
-        .library(concat!("waamtwin ", env!("CARGO_PKG_VERSION")))
-        .create(BufWriter::new(file))
-        .map_err(|x| e(x.to_string()))?;
     let number = json!({"type": "number"});
     let schema = json!({
         "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -164,37 +151,27 @@ fn mcap(dir: &mut RunDir, title: &str, drops: &[DropView]) -> Result<()> {
         },
         "required": ["i", "t_s", "branch", "position_mm", "radius_mm", "ctdwp_mm", "weld_time_s"],
     });
-    let text = serde_json::to_vec(&schema).map_err(|x| e(x.to_string()))?;
-    let id = w
-        .add_schema("waamtwin.Drop", "jsonschema", &text)
-        .map_err(|x| e(x.to_string()))?;
-    let channel = w
-        .add_channel(id, "/drops", "json", &BTreeMap::new())
-        .map_err(|x| e(x.to_string()))?;
-    w.write_metadata(&Metadata {
-        name: "skeleton".into(),
-        metadata: BTreeMap::from([
-            ("title".to_string(), title.to_string()),
-            ("units".to_string(), "length mm, time s".to_string()),
-        ]),
-    })
-    .map_err(|x| e(x.to_string()))?;
-    for (i, d) in drops.iter().enumerate() {
-        let msg = json!({"i": i, "t_s": d.t_s, "branch": d.branch, "position_mm": d.position_mm,
-            "radius_mm": d.radius_mm, "ctdwp_mm": d.ctdwp_mm, "weld_time_s": d.weld_time_s,
-            "solidification_s": d.solidification_s});
-        let data = serde_json::to_vec(&msg).map_err(|x| e(x.to_string()))?;
-        let ns = (d.t_s.max(0.0) * 1e9).round() as u64;
-        let header = MessageHeader {
-            channel_id: channel,
-            sequence: i as u32,
-            log_time: ns,
-            publish_time: ns,
-        };
-        w.write_to_known_channel(&header, &data)
-            .map_err(|x| e(x.to_string()))?;
-    }
-    w.finish().map_err(|x| e(x.to_string()))?;
-    drop(w);
-    dir.commit(&staged, "run.mcap").map(|_| ())
+    let messages = drops.iter().enumerate().map(|(i, d)| {
+        (
+            d.t_s,
+            json!({"i": i, "t_s": d.t_s, "branch": d.branch, "position_mm": d.position_mm,
+                "radius_mm": d.radius_mm, "ctdwp_mm": d.ctdwp_mm, "weld_time_s": d.weld_time_s,
+                "solidification_s": d.solidification_s}),
+        )
+    });
+    super::mcap_json::write(
+        dir,
+        "run.mcap",
+        super::mcap_json::Topic {
+            schema_name: "waamtwin.Drop",
+            schema,
+            topic: "/drops",
+            metadata_name: "skeleton",
+            metadata: BTreeMap::from([
+                ("title".to_string(), title.to_string()),
+                ("units".to_string(), "length mm, time s".to_string()),
+            ]),
+        },
+        messages,
+    )
 }
