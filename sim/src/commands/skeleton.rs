@@ -4,7 +4,7 @@
 //! (one drop a row, for `waamtwin export`), skeleton.json, solidification.png, standoff.png.
 
 use crate::commands::plan::PATH_COLUMNS;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_skeleton;
 use crate::pipeline::skeleton::{DropHeat, LoopRun, heat, run_loop};
@@ -27,11 +27,9 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
         )
     };
     let heats = if set.heat {
+        cost(scenario, &s, &main)?;
         let _stage = crate::progress::Stage::start("heating drop by drop (voxels)");
-        Some(
-            heat(&main, set, &s.process, &s.material, &s.thermal)
-                .map_err(|e| Error::failure(format!("heat model: {e}")))?,
-        )
+        Some(heat(&main, set, &s.process, &s.material, &s.thermal)?)
     } else {
         None
     };
@@ -67,6 +65,32 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     }
     dir.finish("skeleton", s.to_json())?;
     Ok(line(&main, &other, heats.as_deref()))
+}
+
+/// The voxel run's estimate shown and checked (`commands::cost`): the drops' schedule, each
+/// drop's wait taken as the rod's plateau of docs/PHYSICS.md (15 s) up to the longest wait.
+fn cost(file: &Path, s: &Scenario, run: &LoopRun) -> Result<()> {
+    let deps = crate::pipeline::skeleton::schedule(run, &s.skeleton, &s.process);
+    let wait = s.skeleton.max_wait_s.min(15.0).max(s.skeleton.min_wait_s);
+    let build_s = deps.last().map_or(0.0, |d| d.time) + wait * deps.len() as f64;
+    let voxel = crate::pipeline::params::ThermalSettings {
+        model: crate::pipeline::params::ThermalModel::Voxel,
+        ..s.thermal.clone()
+    };
+    let keeps = super::cost::Keeps {
+        copies: 1.0,
+        frames: 0,
+        runs: 1.0,
+    };
+    super::cost::check(
+        &file.display().to_string(),
+        &voxel,
+        &s.material,
+        &deps,
+        build_s,
+        keeps,
+    )
+    .map(|_| ())
 }
 
 /// run.rrd and run.mcap: the drops as the run laid them, each at its strike time.
@@ -115,7 +139,13 @@ fn recordings(
             }
         })
         .collect();
-    crate::record::skeleton_recordings(dir, &s.title(), &polylines, &views)
+    crate::record::skeleton_recordings(
+        dir,
+        &s.title(),
+        &polylines,
+        &views,
+        (s.output.rerun, s.output.mcap),
+    )
 }
 
 fn line(main: &LoopRun, other: &LoopRun, heats: Option<&[DropHeat]>) -> String {

@@ -37,15 +37,22 @@ fn f32x3(p: [f64; 3]) -> [f32; 3] {
     p.map(|x| x as f32)
 }
 
-/// Write run.rrd and run.mcap of a skeleton run; `polylines` the skeleton's branches (mm).
+/// Write run.rrd and run.mcap of a skeleton run, as `(rerun, mcap)` ask; `polylines` the
+/// skeleton's branches (mm).
 pub fn skeleton_recordings(
     dir: &mut RunDir,
     title: &str,
     polylines: &[Vec<[f64; 3]>],
     drops: &[DropView],
+    (rerun, mcap_on): (bool, bool),
 ) -> Result<()> {
-    rrd(dir, title, polylines, drops)?;
-    mcap(dir, title, drops)
+    if rerun {
+        rrd(dir, title, polylines, drops)?;
+    }
+    if mcap_on {
+        mcap(dir, title, drops)?;
+    }
+    Ok(())
 }
 
 /// Blue (quick) to red (slowest) by solidification time; grey without heat.
