@@ -342,8 +342,18 @@ impl HeatModel {
 
     /// Run the schedule as its times say (dwells are the gaps between arcs).
     pub fn simulate(&self, deps: &[Deposit]) -> Result<RunResult, ThermalError> {
+        self.simulate_observed(deps, &mut |_| {})
+    }
+
+    /// [`HeatModel::simulate`], telling `laid` how many deposits are laid after each (a
+    /// caller's progress bar).
+    pub fn simulate_observed(
+        &self,
+        deps: &[Deposit],
+        laid: &mut dyn FnMut(usize),
+    ) -> Result<RunResult, ThermalError> {
         let mut run = self.start(deps)?;
-        replay(&mut run, deps)?;
+        replay_observed(&mut run, deps, laid)?;
         Ok(run.finish())
     }
 
@@ -416,10 +426,20 @@ impl HeatModel {
 /// Lay every deposit of `deps` (the run's schedule) on `run`, each after the gap the schedule
 /// leaves before its arc.
 pub fn replay(run: &mut impl HeatRun, deps: &[Deposit]) -> Result<(), ThermalError> {
+    replay_observed(run, deps, &mut |_| {})
+}
+
+/// [`replay`], telling `laid` how many deposits are laid after each.
+pub fn replay_observed(
+    run: &mut impl HeatRun,
+    deps: &[Deposit],
+    laid: &mut dyn FnMut(usize),
+) -> Result<(), ThermalError> {
     let mut previous_end = deps.first().map_or(0.0, |d| d.arc_start());
     for (i, d) in deps.iter().enumerate() {
         run.deposit(i, (d.arc_start() - previous_end).max(0.0))?;
         previous_end = d.time;
+        laid(i + 1);
     }
     Ok(())
 }

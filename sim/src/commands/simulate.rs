@@ -47,12 +47,12 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
 /// The build heated as `cooling` says, behind a spinner on a terminal; with `frames` > 0 also
 /// the step-by-step temperature of the points the temperature-history plot shows.
 pub fn heat(b: &Build, cooling: &Cooling, frames: usize) -> Result<Simulation> {
-    let _stage = Stage::start("simulating the heat of the build");
+    let bar = crate::progress::Bar::start("heating the build", b.plan.points.len() as u64);
     let traces = match frames {
         0 => Vec::new(),
         _ => crate::record::history_points(b.plan.points.len()).to_vec(),
     };
-    Ok(b.simulate_cooled(cooling, frames, traces)?)
+    Ok(b.simulate_observed(cooling, frames, traces, &mut |k, n| bar.set(k, n))?)
 }
 
 /// The inspection outputs the scenario switches on (`[output]`): run.rrd, run.mcap, fields.h5

@@ -168,6 +168,18 @@ impl Build {
         frames: usize,
         traces: Vec<usize>,
     ) -> Result<Simulation, ThermalError> {
+        self.simulate_observed(cooling, frames, traces, &mut |_, _| {})
+    }
+
+    /// [`Build::simulate_cooled`], telling `laid` (deposits laid, of how many) after each
+    /// deposit: the shell's progress bar; the engine prints nothing.
+    pub fn simulate_observed(
+        &self,
+        cooling: &Cooling,
+        frames: usize,
+        traces: Vec<usize>,
+        laid: &mut dyn FnMut(usize, usize),
+    ) -> Result<Simulation, ThermalError> {
         let deposits = deposition::schedule(&self.params.process, &self.plan, &self.beads, cooling);
         let build_s = deposits.last().map_or(0.0, |d| d.time);
         let times = match frames {
@@ -178,8 +190,8 @@ impl Build {
         model.set_traces(traces);
         model.set_trace_hottest(true);
         let clock = Instant::now();
-        let result = model.simulate(&deposits)?;
         let n = deposits.len();
+        let result = model.simulate_observed(&deposits, &mut |k| laid(k, n))?;
         Ok(Simulation {
             dwell_s: (0..n).map(|i| cooling.dwell(i)).collect(),
             pace: (0..n).map(|i| cooling.pace(i)).collect(),
