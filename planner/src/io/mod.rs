@@ -107,16 +107,9 @@ pub(crate) fn parse_f64(
     let tok = tok.ok_or_else(|| {
         FormatError::at_line(fmt, line, format!("missing {what}; expected a number"))
     })?;
-    tok.parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| {
-            FormatError::at_line(
-                fmt,
-                line,
-                format!("{what} is '{tok}'; expected a finite number"),
-            )
-        })
+    tok.parse::<f64>().map_err(|_| {
+        FormatError::at_line(fmt, line, format!("{what} is '{tok}'; expected a number"))
+    })
 }
 
 /// Text formats may be read as UTF-8 lossily: only ASCII tokens matter.
