@@ -46,6 +46,8 @@ pub enum Command {
         scenario: PathBuf,
         #[arg(short = 'o', long = "out")]
         out: PathBuf,
+        #[command(flatten)]
+        checkpoints: crate::commands::checkpoint::Options,
     },
     /// Replay a toolpath the machine ran on the voxel model and compare with its probes:
     /// probes.csv, replay.json, probes.png.
@@ -53,6 +55,8 @@ pub enum Command {
         scenario: PathBuf,
         #[arg(short = 'o', long = "out")]
         out: PathBuf,
+        #[command(flatten)]
+        checkpoints: crate::commands::checkpoint::Options,
     },
     /// Fit up to three of a replay's parameters to its probes over a fit window and judge the
     /// fit on a held-out one: calibration.json, probes.csv, probes.png.
@@ -66,6 +70,8 @@ pub enum Command {
         /// The held-out window, T0:T1 (default: the second half).
         #[arg(long)]
         holdout: Option<String>,
+        #[command(flatten)]
+        checkpoints: crate::commands::checkpoint::Options,
     },
     /// Plan, simulate and plan the cooling dwells: dwells.csv, dwell.json, and the dwelled run.
     Dwell {
@@ -79,8 +85,11 @@ pub enum Command {
         /// time (pareto.csv, pareto.png): six dwell searches.
         #[arg(long)]
         pareto: bool,
+        #[command(flatten)]
+        checkpoints: crate::commands::checkpoint::Options,
     },
-    /// What-if study: overrides of a base scenario, run two at a time, resumable; summary.csv.
+    /// What-if study: overrides of a base scenario, run `--jobs` at a time, resumable;
+    /// summary.csv.
     Study {
         study: PathBuf,
         #[arg(short = 'o', long = "out")]

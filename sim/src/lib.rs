@@ -46,8 +46,12 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             println!("{line}");
             Ok(())
         }
-        Command::Simulate { scenario, out } => {
-            println!("{}", commands::simulate::run(&scenario, &out)?);
+        Command::Simulate {
+            scenario,
+            out,
+            checkpoints,
+        } => {
+            println!("{}", commands::simulate::run(&scenario, &out, checkpoints)?);
             Ok(())
         }
         Command::Calibrate {
@@ -55,6 +59,7 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             out,
             fit,
             holdout,
+            checkpoints,
         } => {
             let window = |w: Option<String>, flag: &str| {
                 w.map(|w| commands::calibrate::window(&w, flag)).transpose()
@@ -62,12 +67,16 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             let (fit, holdout) = (window(fit, "--fit")?, window(holdout, "--holdout")?);
             println!(
                 "{}",
-                commands::calibrate::run(&scenario, &out, fit, holdout)?
+                commands::calibrate::run(&scenario, &out, fit, holdout, checkpoints)?
             );
             Ok(())
         }
-        Command::Replay { scenario, out } => {
-            println!("{}", commands::replay::run(&scenario, &out)?);
+        Command::Replay {
+            scenario,
+            out,
+            checkpoints,
+        } => {
+            println!("{}", commands::replay::run(&scenario, &out, checkpoints)?);
             Ok(())
         }
         Command::Dwell {
@@ -75,12 +84,16 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             out,
             no_baselines,
             pareto,
+            checkpoints,
         } => {
             let extras = commands::dwell::Extras {
                 baselines: !no_baselines,
                 pareto,
             };
-            println!("{}", commands::dwell::run(&scenario, &out, extras)?);
+            println!(
+                "{}",
+                commands::dwell::run(&scenario, &out, extras, checkpoints)?
+            );
             Ok(())
         }
         Command::Study {

@@ -87,10 +87,26 @@ impl RunDir {
 }
 
 pub fn write_atomic(target: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic_parts(target, &[bytes])
+}
+
+/// [`write_atomic`] of `parts` one after the other, without joining them in memory first.
+pub fn write_atomic_parts(target: &Path, parts: &[&[u8]]) -> Result<()> {
+    use std::io::Write;
     let tmp = staging_name(target);
     let fail =
         |e: std::io::Error| Error::failure(format!("cannot write {}: {e}", target.display()));
-    std::fs::write(&tmp, bytes).map_err(fail)?;
+    let write = || -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        for p in parts {
+            f.write_all(p)?;
+        }
+        Ok(())
+    };
+    write().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        fail(e)
+    })?;
     std::fs::rename(&tmp, target).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
         fail(e)

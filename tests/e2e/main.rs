@@ -9,6 +9,7 @@ mod export;
 mod inspect;
 mod outputs;
 mod replay;
+mod resume;
 mod scenarios;
 mod skeleton;
 mod study;
@@ -122,4 +123,61 @@ pub fn two_humps() -> planner::mesh::TriMesh {
         )
     });
     m
+}
+
+/// JSON with the wall-clock fields taken out: keys naming `wall_s`, and the search cost, a
+/// ratio of two wall-clock times.
+pub fn without_clock(v: &mut serde_json::Value) {
+    if let Some(m) = v.as_object_mut() {
+        m.retain(|k, _| !k.contains("wall_s") && k != "search_cost_in_builds");
+        m.values_mut().for_each(without_clock);
+    }
+}
+
+/// run.mcap's messages in order (topic, log time, payload): its summary section lists schemas
+/// and channels in the writer's hash order, which changes from process to process.
+pub fn mcap_messages(path: &Path) -> Vec<(String, u64, Vec<u8>)> {
+    let bytes = std::fs::read(path).unwrap();
+    mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| {
+            let m = m.unwrap();
+            (m.channel.topic.clone(), m.log_time, m.data.into_owned())
+        })
+        .collect()
+}
+
+/// Every file of run directory `one` is in `two` with the same content, wall-clock fields
+/// aside (the manifest, a rerun recording's ids and times, JSON keys naming `wall_s`, run.mcap's
+/// summary order); the file names compared.
+pub fn assert_same_outputs(one: &Path, two: &Path, how: &str) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(one)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    for name in &names {
+        let (a, b) = (one.join(name), two.join(name));
+        match name.as_str() {
+            // The manifest is a record of the run itself: its id, start and duration.
+            "manifest.json" => {}
+            // A rerun recording carries a random recording id and wall-clock times.
+            "run.rrd" => assert!(b.is_file()),
+            "run.mcap" => assert_eq!(mcap_messages(&a), mcap_messages(&b), "{name} {how}"),
+            n if n.ends_with(".json") => {
+                let read = |p: &Path| {
+                    let mut v: serde_json::Value =
+                        serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap();
+                    without_clock(&mut v);
+                    v
+                };
+                assert_eq!(read(&a), read(&b), "{name} {how}");
+            }
+            _ => assert!(
+                std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(),
+                "{name} differs {how}"
+            ),
+        }
+    }
+    names
 }

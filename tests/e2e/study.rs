@@ -246,3 +246,41 @@ fn a_bad_case_names_the_study_file_and_the_case() {
             .exists()
     );
 }
+
+/// A few short lists in `[sweep]` multiply to any number of cases: past 10 000 the study is
+/// refused at once, naming the lists, before any case is built (twenty lists of ten would be
+/// 10^20 cases).
+#[test]
+fn a_sweep_of_too_many_cases_is_refused_at_once() {
+    let dir = scratch("study_too_many");
+    std::fs::write(
+        dir.join("base.toml"),
+        "[part]\nshape = \"cylinder\"\nradius_mm = 25.0\nheight_mm = 14.0\n",
+    )
+    .unwrap();
+    let study = dir.join("huge.toml");
+    let mut text = String::from("base = \"base.toml\"\n[sweep]\n");
+    for key in ["process.travel_speed_mm_s", "thermal.convection_w_m2k"] {
+        let values: Vec<String> = (0..101).map(|k| format!("{}.0", 5 + k)).collect();
+        text += &format!("\"{key}\" = [{}]\n", values.join(", "));
+    }
+    std::fs::write(&study, text).unwrap();
+    let clock = std::time::Instant::now();
+    let out = study_cmd(&[
+        study.to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ])
+    .output()
+    .unwrap();
+    crate::assert_input_error(
+        &out,
+        &[
+            "huge.toml",
+            "10201 cases",
+            "process.travel_speed_mm_s: 101 × thermal.convection_w_m2k: 101",
+            "at most 10000",
+        ],
+    );
+    assert!(clock.elapsed().as_secs_f64() < 5.0);
+}

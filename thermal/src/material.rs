@@ -85,7 +85,7 @@ pub const IN718_K: [(f64, f64); 17] = [
     (1873.0, 29.6),
 ];
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Material {
     pub density: f64,
     /// Specific heat c_p(T), J/(kg K), at `TABLE_STEP` intervals from 0 K.

@@ -20,7 +20,7 @@ use std::sync::Arc;
 pub const SIGMA: f64 = 5.670_374_419e-8;
 
 /// Boundary conditions of the surroundings.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Surroundings {
     pub ambient_k: f64,
     pub convection_w_m2k: f64,
@@ -30,7 +30,7 @@ pub struct Surroundings {
 }
 
 /// Energy accounts, J.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Ledger {
     /// Heat put in by sources.
     pub source: f64,
@@ -52,7 +52,7 @@ impl Ledger {
 
 /// Cloning is a checkpoint: the state (enthalpy, temperature, activity, exposure, ledger) is
 /// copied, the structure (material, masses, adjacency) shared.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct Network {
     pub material: Arc<Material>,
     pub surroundings: Surroundings,
@@ -80,24 +80,36 @@ pub struct Network {
 
 /// The step's workspace, sized once: no allocation in a time step. A checkpoint copies only
 /// the last step's temperatures and length (the next step starts from their trend).
-#[derive(Default)]
+#[derive(Default, serde::Serialize, serde::Deserialize)]
 struct Scratch {
     /// Heat capacity over the step, m·c/dt, W/K: the secant of h(T) over the step once found.
+    #[serde(skip)]
     cap: Vec<f64>,
+    #[serde(skip)]
     diag: Vec<f64>,
+    #[serde(skip)]
     rhs: Vec<f64>,
+    #[serde(skip)]
     x: Vec<f64>,
+    #[serde(skip)]
     r: Vec<f64>,
+    #[serde(skip)]
     z: Vec<f64>,
+    #[serde(skip)]
     p: Vec<f64>,
+    #[serde(skip)]
     q: Vec<f64>,
+    #[serde(skip)]
     cond: Vec<f64>,
     /// 1 / diag: the Jacobi preconditioner as a product.
+    #[serde(skip)]
     inv_diag: Vec<f64>,
     /// Conductance of each adjacency entry this step (0 to inactive neighbours).
+    #[serde(skip)]
     edge_g: Vec<f64>,
     /// The active nodes as runs of consecutive indices [start, end): the loops over them are
     /// plain slices the compiler vectorises.
+    #[serde(skip)]
     runs: Vec<(usize, usize)>,
     last_t: Vec<f64>,
     last_dt: f64,

@@ -15,7 +15,7 @@ use crate::voxel::{VoxelModel, VoxelRun, VoxelSettings};
 use crate::wall::{WallModel, WallRun, WallSettings};
 
 /// The substrate plate: a box under the part, its top face at z = 0.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Plate {
     /// Size x, y and thickness, m.
     pub size: [f64; 3],
@@ -34,7 +34,7 @@ pub struct Plate {
 }
 
 /// What a deposit is laid on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Support {
     /// The substrate plate (the first revolution).
     Plate,
@@ -48,7 +48,7 @@ pub enum Support {
 }
 
 /// Per deposit.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PointResult {
     /// Temperature of the metal this deposit is laid on, read when the torch is `lead` upstream.
     pub preheat: f64,
@@ -63,7 +63,7 @@ pub struct PointResult {
 }
 
 /// The field at one time: one temperature per deposit (K), its metal's once laid.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Snapshot {
     pub time: f64,
     pub temperature: Vec<f64>,
@@ -71,7 +71,7 @@ pub struct Snapshot {
 
 /// One deposit's metal temperature at every step of the run from when it was laid (the
 /// settings' `traces`).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Trace {
     pub deposit: usize,
     /// s.
@@ -92,7 +92,7 @@ impl Trace {
 
 /// The hottest laid metal at every step (the settings' `trace_hottest`): what the arc does to the
 /// part between snapshots, every pass's peak included.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Hottest {
     /// s.
     pub time: Vec<f64>,
@@ -113,7 +113,7 @@ impl Hottest {
 /// A point whose temperature the run keeps (a thermocouple, a spot an IR camera reads): the
 /// temperature of the model's cell nearest to it, within one cell, once there is one; NaN
 /// before (metal not yet laid there).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ProbeTrace {
     /// m.
     pub position: [f64; 3],
@@ -134,7 +134,7 @@ impl ProbeTrace {
 }
 
 /// How a model discretised the part, and what it cost.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Cells {
     ThinWall {
         wall_nodes: usize,
@@ -150,7 +150,7 @@ pub enum Cells {
 }
 
 /// A finished run.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct RunResult {
     pub points: Vec<PointResult>,
     /// What each deposit is laid on.
@@ -225,7 +225,7 @@ impl Burn {
 }
 
 /// The drops a run has laid, and the readings of the one struck last.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub(crate) struct Drops {
     /// Deposits laid as part of a drop, in order.
     laid: Vec<usize>,
@@ -321,7 +321,7 @@ pub enum HeatModel {
 }
 
 /// A run of either model.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub enum ModelRun {
     ThinWall(Box<WallRun>),
     Voxel(Box<VoxelRun>),
@@ -345,15 +345,15 @@ impl HeatModel {
         self.simulate_observed(deps, &mut |_| {})
     }
 
-    /// [`HeatModel::simulate`], telling `laid` how many deposits are laid after each (a
-    /// caller's progress bar).
+    /// [`HeatModel::simulate`], showing `after` the run after each deposit (a caller's
+    /// progress bar, its checkpoints).
     pub fn simulate_observed(
         &self,
         deps: &[Deposit],
-        laid: &mut dyn FnMut(usize),
+        after: &mut dyn FnMut(&ModelRun),
     ) -> Result<RunResult, ThermalError> {
         let mut run = self.start(deps)?;
-        replay_observed(&mut run, deps, laid)?;
+        replay_observed(&mut run, deps, after)?;
         Ok(run.finish())
     }
 
@@ -423,23 +423,28 @@ impl HeatModel {
     }
 }
 
-/// Lay every deposit of `deps` (the run's schedule) on `run`, each after the gap the schedule
-/// leaves before its arc.
-pub fn replay(run: &mut impl HeatRun, deps: &[Deposit]) -> Result<(), ThermalError> {
+/// Lay every deposit of `deps` (the run's schedule) not yet laid on `run`, each after the gap
+/// the schedule leaves before its arc: a fresh run from the first, a run kept part-way from
+/// where it stopped.
+pub fn replay<R: HeatRun>(run: &mut R, deps: &[Deposit]) -> Result<(), ThermalError> {
     replay_observed(run, deps, &mut |_| {})
 }
 
-/// [`replay`], telling `laid` how many deposits are laid after each.
-pub fn replay_observed(
-    run: &mut impl HeatRun,
+/// [`replay`], showing `after` the run after each deposit.
+pub fn replay_observed<R: HeatRun>(
+    run: &mut R,
     deps: &[Deposit],
-    laid: &mut dyn FnMut(usize),
+    after: &mut dyn FnMut(&R),
 ) -> Result<(), ThermalError> {
-    let mut previous_end = deps.first().map_or(0.0, |d| d.arc_start());
-    for (i, d) in deps.iter().enumerate() {
+    let from = run.laid();
+    let mut previous_end = match from {
+        0 => deps.first().map_or(0.0, |d| d.arc_start()),
+        k => deps[k - 1].time,
+    };
+    for (i, d) in deps.iter().enumerate().skip(from) {
         run.deposit(i, (d.arc_start() - previous_end).max(0.0))?;
         previous_end = d.time;
-        laid(i + 1);
+        after(run);
     }
     Ok(())
 }

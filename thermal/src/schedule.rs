@@ -4,7 +4,7 @@
 use crate::error::ThermalError;
 
 /// One deposit, in path order. SI units.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Deposit {
     /// Where the bead segment ends (the path point), m.
     pub position: [f64; 3],
@@ -32,7 +32,7 @@ pub struct Deposit {
 /// was when the arc struck. Its preheat is read then, on the metal beneath it, not `lead`
 /// upstream of a torch that does not run; a wait before the strike (a dwell) acts on it whatever
 /// it lies on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum DropPart {
     /// The arc strikes here, after the wait before it, for a drop of this deposit and the
     /// `deposits − 1` after it.

@@ -18,7 +18,7 @@ use crate::schedule::{Deposit, read_fractions, segment_start, validate};
 use std::collections::HashMap;
 use std::sync::Arc;
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WallSettings {
     pub material: Material,
     pub surroundings: Surroundings,
@@ -118,7 +118,7 @@ fn layout(deps: &[Deposit], min_node: f64) -> Layout {
     l
 }
 
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct WallModel {
     pub network: Network,
     layout_first: Arc<Vec<usize>>,
@@ -329,7 +329,7 @@ impl WallModel {
 
 /// A thin-wall run in progress, one deposit at a time. Cloning it is a checkpoint: the dwell
 /// planner restarts from one with a trial dwell instead of simulating the build again.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct WallRun {
     model: WallModel,
     settings: Arc<WallSettings>,

@@ -100,6 +100,43 @@ fn a_checkpoint_carries_on_as_the_run_it_was_cloned_from() {
     }
 }
 
+/// A run written to bytes part-way and read back goes on to the same result, to the bit, as the
+/// run that never stopped: what `--resume` relies on. Both models, with every record a run can
+/// keep (snapshots, traces, the hottest metal, probes: NaN before metal reaches them).
+#[test]
+fn a_run_kept_as_bytes_carries_on_to_the_bit() {
+    let deps = schedule();
+    for mut model in models(Material::g3si()) {
+        model.set_traces(vec![3, 45]);
+        model.set_trace_hottest(true);
+        let [x, y, z] = deps[75].position;
+        model.set_probes(vec![[0.0, 0.025, 0.0], [x, y, z + 1e-3]], 0.0);
+        let bytes = |r: &RunResult| postcard::to_stdvec(r).unwrap();
+        let whole = model.simulate(&deps).unwrap();
+        let mut run = model.start(&deps).unwrap();
+        let mut previous_end = deps[0].arc_start();
+        for (i, d) in deps.iter().enumerate().take(50) {
+            run.deposit(i, (d.arc_start() - previous_end).max(0.0))
+                .unwrap();
+            previous_end = d.time;
+        }
+        let kept = postcard::to_stdvec(&run).unwrap();
+        let mut resumed: thermal::ModelRun = postcard::from_bytes(&kept).unwrap();
+        assert_eq!(resumed.laid(), 50);
+        thermal::run::replay(&mut resumed, &deps).unwrap();
+        let resumed = resumed.finish();
+        assert!(
+            resumed.probes[1].temperature.iter().any(|t| t.is_nan()),
+            "{}",
+            model.name()
+        );
+        assert!(!resumed.traces[1].temperature.is_empty() && !resumed.hottest.time.is_empty());
+        assert!(bytes(&resumed) == bytes(&whole), "{}", model.name());
+        // A state cut short does not read.
+        assert!(postcard::from_bytes::<thermal::ModelRun>(&kept[..kept.len() / 2]).is_err());
+    }
+}
+
 #[test]
 fn a_dwell_passed_to_deposit_is_a_gap_in_the_schedule() {
     let deps = schedule();

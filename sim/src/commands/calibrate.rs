@@ -10,17 +10,21 @@
 //! (checkpoints), and the held-out window is reached by going on from them rather than by two
 //! runs from the start.
 
+use super::checkpoint;
 use super::replay::{
-    Replay, compare, material_of, measured, overall, probes_csv, sampling_interval, waypoints,
+    Replay, advance_kept, compare, material_of, measured, overall, probes_csv, sampling_interval,
+    waypoints,
 };
 use crate::error::{Error, Result};
 use crate::measured::probes::Series;
 use crate::output::RunDir;
 use crate::pipeline::calibrate::{self, Range, Settings};
-use crate::pipeline::replay::{self, advance};
+use crate::pipeline::checkpoint::Checkpoints;
+use crate::pipeline::replay;
 use crate::progress::Stage;
 use crate::scenario::ThermalSettings;
 use crate::scenario::replay::{Parameter, ReplayScenario};
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
@@ -43,32 +47,73 @@ fn with(s: &ReplayScenario, parameters: &[Parameter], values: &[f64]) -> (f64, T
 }
 
 /// A run with `values` of `parameters` stopped at the end of the fit window: the probes' traces
-/// so far, and the run itself to go on from (its checkpoint).
-#[derive(Clone)]
+/// so far, and the run itself to go on from (its checkpoint; `None` once the fit no longer
+/// needs it).
+#[derive(Clone, Serialize, Deserialize)]
 struct Stopped {
     values: Vec<f64>,
     traces: Vec<ProbeTrace>,
-    run: ModelRun,
+    run: Option<ModelRun>,
     deps: Vec<Deposit>,
 }
 
-/// Run with `values` of `parameters` from the start until `until_s`.
-fn stopped(r: &Replay, parameters: &[Parameter], values: &[f64], until_s: f64) -> Result<Stopped> {
-    let (efficiency, thermal) = with(r.s, parameters, values);
-    let (deps, mut run) = r.start(efficiency, &thermal)?;
-    advance(&mut run, &deps, until_s)?;
+impl Stopped {
+    /// The traces alone: what a checkpoint keeps of an evaluation the fit cannot end at.
+    fn light(&self) -> Stopped {
+        Stopped {
+            values: self.values.clone(),
+            traces: self.traces.clone(),
+            run: None,
+            deps: Vec::new(),
+        }
+    }
+}
+
+/// Run with `values` of `parameters` from the start until `until_s`, kept under `progress`.
+fn stopped(
+    r: &Replay,
+    parameters: &[Parameter],
+    values: &[f64],
+    until_s: f64,
+    ck: &mut Checkpoints<'_>,
+    progress: &str,
+) -> Result<Stopped> {
+    let (deps, mut run) = match ck.load::<(Vec<Deposit>, ModelRun)>(progress) {
+        Some(kept) => kept,
+        None => {
+            let (efficiency, thermal) = with(r.s, parameters, values);
+            r.start(efficiency, &thermal)?
+        }
+    };
+    advance_kept(&mut run, &deps, until_s, ck, progress)?;
     Ok(Stopped {
         values: values.to_vec(),
         traces: run.clone().finish().probes,
-        run,
+        run: Some(run),
         deps,
     })
 }
 
 /// Go on from a stopped run to `until_s`: the probes' traces from the start.
-fn resumed(mut s: Stopped, until_s: f64) -> Result<Vec<ProbeTrace>> {
-    advance(&mut s.run, &s.deps, until_s)?;
-    Ok(s.run.finish().probes)
+fn resumed(
+    s: Stopped,
+    until_s: f64,
+    ck: &mut Checkpoints<'_>,
+    progress: &str,
+) -> Result<Vec<ProbeTrace>> {
+    let (deps, mut run) = match ck.load::<(Vec<Deposit>, ModelRun)>(progress) {
+        Some(kept) => kept,
+        None => match s.run {
+            Some(run) => (s.deps, run),
+            None => {
+                return Err(Error::failure(
+                    "calibrate: a run the fit ended at was not kept (a bug)",
+                ));
+            }
+        },
+    };
+    advance_kept(&mut run, &deps, until_s, ck, progress)?;
+    Ok(run.finish().probes)
 }
 
 /// The measured samples (probe, index) inside `window` where the first run predicts too.
@@ -127,6 +172,7 @@ pub fn run(
     out: &Path,
     fit_flag: Option<[f64; 2]>,
     holdout_flag: Option<[f64; 2]>,
+    resume: checkpoint::Options,
 ) -> Result<String> {
     let s = ReplayScenario::load(scenario)?;
     let name = scenario.display();
@@ -172,9 +218,27 @@ pub fn run(
             })
             .collect()
     };
+    // The windows decide where the runs stop: part of what the checkpoints are of.
+    let windows = format!("{fit_w:?} {hold_w:?}");
+    let print = checkpoint::fingerprint(&[
+        b"calibrate",
+        s.to_json().to_string().as_bytes(),
+        &postcard::to_stdvec(&r.deps).unwrap_or_default(),
+        windows.as_bytes(),
+    ]);
+    let mut folder = checkpoint::Folder::open(out, "calibrate", print, resume)?;
+    let mut ck = Checkpoints::to(&mut folder);
     let clock = Instant::now();
     let stage = Stage::start("calibrating: each step a run of the heat model");
-    let first = stopped(&r, &names, &start, fit_w[1])?;
+    // Each evaluation of the fit is a stage of its own: a run that resumes takes those done
+    // and the fit, deterministic, asks for them again in the same order.
+    let evaluate = |k: usize, values: &[f64], ck: &mut Checkpoints<'_>| {
+        ck.stage(&format!("evaluation-{k}"), |ck, progress| {
+            stopped(&r, &names, values, fit_w[1], ck, progress)
+        })
+        .map(|done| done.0)
+    };
+    let first = evaluate(0, &start, &mut ck)?;
     let samples = fit_samples(&m, &first.traces, fit_w);
     if samples.is_empty() {
         return Err(Error::input(format!(
@@ -188,10 +252,12 @@ pub fn run(
     };
     // The fit ends at a point it evaluated within its last iteration or the Jacobian after
     // it (at most 2n + 2 evaluations back, n parameters): keep that many stopped runs, and the
-    // first (the starting values, as the fit put them), which `before` goes on from.
+    // first (the starting values, as the fit put them), which `before` goes on from. An
+    // evaluation that drops out is kept as its traces alone.
     let keep = 2 * names.len() + 3;
-    let mut recent: Vec<Stopped> = Vec::new();
+    let mut recent: Vec<(usize, Stopped)> = Vec::new();
     let mut first = Some(first);
+    let mut k = 0;
     let fit = calibrate::fit(&start, &ranges, settings, |values| {
         let run = match first.take() {
             // The first evaluation is the run made above.
@@ -199,31 +265,43 @@ pub fn run(
                 values: values.to_vec(),
                 ..f
             },
-            None => stopped(&r, &names, values, fit_w[1])?,
+            None => evaluate(k, values, &mut ck)?,
         };
         let residuals = residuals(&m, &run.traces, &samples);
-        recent.push(run);
+        recent.push((k, run));
+        k += 1;
         if recent.len() > keep + 1 {
-            recent.remove(1);
+            let (gone, run) = recent.remove(1);
+            ck.save(&format!("evaluation-{gone}"), &run.light());
         }
         Ok::<_, Error>(residuals)
     })?;
-    let before = recent.first().cloned();
+    let before = recent.first().map(|r| r.1.clone());
     let after = recent
         .iter()
         .rev()
-        .find(|s| s.values == fit.values)
-        .cloned();
+        .find(|s| s.1.values == fit.values)
+        .map(|r| r.1.clone());
     let (before, after) = match (before, after) {
         (Some(b), Some(a)) => (b, a),
         // Not reached while `keep` holds what the fit can end at; a run from the start if so.
-        (b, a) => (
-            b.map_or_else(|| stopped(&r, &names, &start, fit_w[1]), Ok)?,
-            a.map_or_else(|| stopped(&r, &names, &fit.values, fit_w[1]), Ok)?,
-        ),
+        (b, a) => {
+            let fresh = |values: &[f64], ck: &mut Checkpoints<'_>| {
+                stopped(&r, &names, values, fit_w[1], ck, "")
+            };
+            (
+                b.map_or_else(|| fresh(&start, &mut Checkpoints::off()), Ok)?,
+                a.map_or_else(|| fresh(&fit.values, &mut Checkpoints::off()), Ok)?,
+            )
+        }
     };
     drop(recent);
-    let (before, after) = (resumed(before, end_s)?, resumed(after, end_s)?);
+    let (before, _) = ck.stage("before_to_end", |ck, progress| {
+        resumed(before, end_s, ck, progress)
+    })?;
+    let (after, _) = ck.stage("after_to_end", |ck, progress| {
+        resumed(after, end_s, ck, progress)
+    })?;
     drop(stage);
     let wall_s = clock.elapsed().as_secs_f64();
     let judge = |traces: &[ProbeTrace], w: [f64; 2]| overall(&compare(p, &m, traces, w, &[]));
@@ -286,6 +364,7 @@ pub fn run(
         crate::record::probe_plot(&mut dir, "probes.png", &title, &series, Some(fit_w))?;
     }
     dir.finish("calibrate", s.to_json())?;
+    folder.close()?;
     let values: Vec<String> = names
         .iter()
         .zip(&fit.values)

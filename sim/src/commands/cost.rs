@@ -38,6 +38,9 @@ pub struct Keeps {
     /// Heat runs the command makes, in build times (a dwell search: about two and a half,
     /// docs/PERFORMANCE.md, then the run with its dwells).
     pub runs: f64,
+    /// The frames are recorded (run.rrd, run.mcap, fields.h5, the plots): each sink's scene
+    /// holds them too ([`crate::pipeline::cost::recording_bytes`]).
+    pub recorded: bool,
 }
 
 /// Estimate the run, print the estimate on stderr, and refuse it where it cannot fit.
@@ -59,6 +62,9 @@ pub fn check(
         rayon::current_num_threads(),
     );
     e.seconds *= keeps.runs;
+    if keeps.recorded {
+        e.bytes += crate::pipeline::cost::recording_bytes(deposits.len(), keeps.frames);
+    }
     eprintln!("{}", e.line());
     if let Some(avail) = available_memory()
         && e.bytes > avail

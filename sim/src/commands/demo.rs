@@ -33,6 +33,7 @@ pub fn demo(out: &Path) -> Result<()> {
             "the demo scenario",
             &mut dir,
             super::dwell::Extras::default(),
+            None,
         )?
     );
     dir.finish("demo", scenario.to_json())?;

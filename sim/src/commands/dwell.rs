@@ -1,10 +1,12 @@
 //! `waamtwin dwell SCENARIO -o DIR [--no-baselines]`: plan, simulate, plan the cooling dwells,
 //! check them in a fresh simulation of the dwelled path, and compare with the baselines.
 
+use super::checkpoint;
 use super::simulate::{heat, record, write_thermal};
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
+use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::deposition::Cooling;
 use crate::pipeline::dwell::DwellPlan;
 use crate::pipeline::dwell::{dwell_points, first_risk, uniform_baseline, wait_until_cool};
@@ -15,7 +17,6 @@ use crate::scenario::Scenario;
 use serde_json::{Value, json};
 use std::fmt::Write;
 use std::path::Path;
-use std::time::Instant;
 use thermal::celsius;
 
 /// What the dwell command does beyond the plan: the baselines, and the arc-stop front.
@@ -25,12 +26,17 @@ pub struct Extras {
     pub pareto: bool,
 }
 
-pub fn run(scenario: &Path, out: &Path, extras: Extras) -> Result<String> {
+pub fn run(
+    scenario: &Path,
+    out: &Path,
+    extras: Extras,
+    resume: checkpoint::Options,
+) -> Result<String> {
     let s = Scenario::load(scenario)?;
     let file = scenario.display().to_string();
     super::cost::check_plate(&file, &s.thermal, &s.material, keeps(&s))?;
     let mut dir = RunDir::create(out)?;
-    let line = plan_and_dwell(&s, &file, &mut dir, extras)?;
+    let line = plan_and_dwell(&s, &file, &mut dir, extras, Some(resume))?;
     dir.finish("dwell", s.to_json())?;
     Ok(line)
 }
@@ -44,19 +50,30 @@ fn keeps(s: &Scenario) -> super::cost::Keeps {
         copies: 4.0,
         frames: s.output.frames,
         runs: 1.0 + 2.5 + 2.0,
+        recorded: s.output.records(),
     }
 }
 
 /// Plan, simulate, plan the dwells and simulate the dwelled path, writing every file of the
-/// dwell command into `dir` (all but the manifest).
+/// dwell command into `dir` (all but the manifest). With `resume`, each stage is kept in the
+/// run's checkpoint folder (a heat run, the search between revolutions; the baselines and the
+/// front as each finishes) and taken from there by `--resume`.
 pub fn plan_and_dwell(
     s: &Scenario,
     file: &str,
     dir: &mut RunDir,
     extras: Extras,
+    resume: Option<checkpoint::Options>,
 ) -> Result<String> {
     let part = load_part(&s.part)?;
     let b = super::plan::build(s, &part)?;
+    let mut folder = match resume {
+        Some(o) => {
+            let print = checkpoint::of_run("dwell", &s.to_json(), b.deposits());
+            Some(checkpoint::Folder::open(dir.path(), "dwell", print, o)?)
+        }
+        None => None,
+    };
     super::cost::check(
         file,
         &s.thermal,
@@ -65,20 +82,28 @@ pub fn plan_and_dwell(
         b.deposits().last().map_or(0.0, |d| d.time),
         keeps(s),
     )?;
-    let before = heat(&b, &Cooling::default(), 0)?;
-    let clock = Instant::now();
-    let (plan, budget) = {
+    let mut ck = match folder.as_mut() {
+        Some(f) => Checkpoints::to(f),
+        None => Checkpoints::off(),
+    };
+    let before = heat(&b, &Cooling::default(), 0, &mut ck, "before")?;
+    let (plan, budget, search_s) = {
         let _stage = Stage::start("planning the dwells");
         match b.params.dwell.max_arc_stops {
             Some(max) => {
-                let r = arc_stops::within_budget(&b, max)?;
-                (r.plan.clone(), Some((max, r)))
+                let (r, wall_s) = ck.stage("search", |_, _| arc_stops::within_budget(&b, max))?;
+                (r.plan.clone(), Some((max, r)), wall_s)
             }
-            None => (b.plan_dwells()?, None),
+            None => {
+                let weight = b.params.dwell.count_weight_s;
+                let (plan, wall_s) = ck.stage("search", |ck, progress| {
+                    b.plan_dwells_kept(weight, ck, progress)
+                })?;
+                (plan, None, wall_s)
+            }
         }
     };
-    let search_s = clock.elapsed().as_secs_f64();
-    let after = heat(&b, &plan.cooling, s.output.frames)?;
+    let after = heat(&b, &plan.cooling, s.output.frames, &mut ck, "after")?;
     let (pl, d) = (&b.plan, &b.params.dwell);
     let risks_after = after.risks(&b.criteria);
     let zone = b.closing_zone();
@@ -147,7 +172,7 @@ pub fn plan_and_dwell(
     if extras.pareto {
         let _stage = Stage::start("the arc-stop front: a dwell plan per weight of an arc stop");
         let known = budget.as_ref().map_or(&[][..], |(_, r)| r.tried.as_slice());
-        let plans = arc_stops::front(&b, known)?;
+        let plans = ck.stage("front", |_, _| arc_stops::front(&b, known))?.0;
         let mut csv = String::from(
             "weight_s,arc_stops,total_dwell_s,build_time_s,on_front,slowed_points,drops\n",
         );
@@ -175,7 +200,11 @@ pub fn plan_and_dwell(
         let model = b.heat_model(deps, Vec::new());
         let pacing = b.pacing();
         let search = b.search(&pacing);
-        let uniform = uniform_baseline(&search, pl, &model, deps)?;
+        let uniform = ck
+            .stage("uniform", |_, _| {
+                uniform_baseline(&search, pl, &model, deps)
+            })?
+            .0;
         // Where the uniform policy stops working (a dome's closing zone), both are compared on
         // the points before.
         let until = uniform.until;
@@ -184,10 +213,18 @@ pub fn plan_and_dwell(
             .filter(|&i| i < until)
             .count();
         let planned_there: f64 = plan.dwell_s()[..until].iter().sum();
-        let waits = wait_until_cool(&search, pl, &model, deps)?;
+        let waits = ck
+            .stage("wait_until_cool", |_, _| {
+                wait_until_cool(&search, pl, &model, deps)
+            })?
+            .0;
         let wait_total: f64 = waits.iter().sum();
         let n = deps.len();
-        let wait_risk = first_risk(&search, &model, deps, &waits, n)?;
+        let wait_risk = ck
+            .stage("wait_until_cool_risk", |_, _| {
+                first_risk(&search, &model, deps, &waits, n)
+            })?
+            .0;
         let wait_safe_until = wait_risk.map_or(n, |(i, _)| i);
         summary["baselines"] = json!({
             "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(&b, &before)},
@@ -235,6 +272,9 @@ pub fn plan_and_dwell(
     }
     dir.write("dwells.csv", csv.as_bytes())?;
     dir.write_json("dwell.json", &summary)?;
+    if let Some(folder) = folder {
+        folder.close()?;
+    }
     Ok(format!(
         "{count} dwells, {total:.0} s in all, {} points slowed, closed by {}: {stops} arc stops; build {:.0} s → {:.0} s; {} points still at risk; search {:.1} {} builds of wall time",
         c.slowed(),

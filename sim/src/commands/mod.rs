@@ -1,6 +1,7 @@
 //! One module per subcommand; each is a library function a test can call.
 
 pub mod calibrate;
+pub mod checkpoint;
 pub mod cost;
 pub mod demo;
 pub mod dwell;

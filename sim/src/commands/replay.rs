@@ -4,18 +4,19 @@
 //! all), probes.png (measured and predicted against time), run.rrd and run.mcap (the probes as
 //! series). The file contract is in `scenarios/README.md`.
 
+use super::checkpoint;
 use crate::error::{Error, Result};
 use crate::measured::{gcode, machine_log, probes, table, toolpath};
 use crate::output::RunDir;
+use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::deposition::heat_model_of;
-use crate::pipeline::replay::{self, Agreement, Pass, Sample, advance};
+use crate::pipeline::replay::{self, Agreement, Pass, Sample};
 use crate::progress::Stage;
 use crate::scenario::ThermalSettings;
 use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
 use serde_json::json;
 use std::fmt::Write;
 use std::path::Path;
-use std::time::Instant;
 use thermal::ZERO_CELSIUS_K as C;
 use thermal::material::Material;
 use thermal::run::RunResult;
@@ -48,15 +49,21 @@ pub(crate) struct Replay<'a> {
 impl Replay<'_> {
     /// Heat the path at arc efficiency (or absorptivity) `efficiency` with `thermal` from the
     /// start until `until_s` (cooling after the last deposit if that comes later; deposits
-    /// after it left out).
-    pub fn run(
+    /// after it left out): the deposits laid and what the model made of them. The run is kept
+    /// under `progress` as it goes, and taken from there.
+    pub fn run_kept(
         &self,
         efficiency: f64,
         thermal: &ThermalSettings,
         until_s: f64,
+        ck: &mut Checkpoints<'_>,
+        progress: &str,
     ) -> Result<(Vec<Deposit>, RunResult)> {
-        let (deps, mut run) = self.start(efficiency, thermal)?;
-        advance(&mut run, &deps, until_s)?;
+        let (deps, mut run) = match ck.load::<(Vec<Deposit>, ModelRun)>(progress) {
+            Some(kept) => kept,
+            None => self.start(efficiency, thermal)?,
+        };
+        advance_kept(&mut run, &deps, until_s, ck, progress)?;
         let laid = run.laid();
         Ok((deps[..laid].to_vec(), run.finish()))
     }
@@ -90,7 +97,21 @@ impl Replay<'_> {
     }
 }
 
-pub fn run(scenario: &Path, out: &Path) -> Result<String> {
+/// [`advance`] with `run` (on `deps`) kept under `progress` when the interval has passed.
+pub(crate) fn advance_kept(
+    run: &mut ModelRun,
+    deps: &[Deposit],
+    until_s: f64,
+    ck: &mut Checkpoints<'_>,
+    progress: &str,
+) -> Result<()> {
+    replay::advance_observed(run, deps, until_s, &mut |r| {
+        ck.save_if_due(progress, || (deps, r));
+    })?;
+    Ok(())
+}
+
+pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<String> {
     let s = ReplayScenario::load(scenario)?;
     let path = waypoints(&s)?;
     let deps = replay::deposits(&path, &s.laying);
@@ -121,12 +142,15 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
         material,
         plate_material: s.plate_material.as_ref().map(material_of).transpose()?,
     };
-    let clock = Instant::now();
-    let (deps, result) = {
+    let print = checkpoint::of_run("replay", &s.to_json(), &r.deps);
+    let mut folder = checkpoint::Folder::open(out, "replay", print, resume)?;
+    let mut ck = Checkpoints::to(&mut folder);
+    let ((deps, result), wall_s) = {
         let _stage = Stage::start("heating the replayed toolpath");
-        r.run(s.laying.efficiency, &s.thermal, until_s)?
+        ck.stage("heat", |ck, progress| {
+            r.run_kept(s.laying.efficiency, &s.thermal, until_s, ck, progress)
+        })?
     };
-    let wall_s = clock.elapsed().as_secs_f64();
     let build_s = deps.last().map_or(0.0, |d| d.time);
     let window = s.window_s.unwrap_or([0.0, until_s]);
     let starts = replay::pass_starts(&deps);
@@ -196,6 +220,7 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
         crate::record::replay::write(&mut dir, &title, &tracks(&deps), &recorded)?;
     }
     dir.finish("replay", s.to_json())?;
+    folder.close()?;
     Ok(summary(&deps, build_s, wall_s, &compared, overall))
 }
 

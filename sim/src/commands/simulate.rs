@@ -1,10 +1,12 @@
 //! `waamtwin simulate SCENARIO -o DIR`: plan, beads, and the heat of the build without dwells;
 //! thermal.json and layers.csv beside the plan's files.
 
+use crate::commands::checkpoint;
 use crate::commands::cost::{Keeps, check, check_plate};
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
+use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::deposition::Cooling;
 use crate::pipeline::{Build, Simulation};
 use crate::progress::Stage;
@@ -16,18 +18,21 @@ use std::fmt::Write;
 use std::path::Path;
 use thermal::{Cells, celsius};
 
-pub fn run(scenario: &Path, out: &Path) -> Result<String> {
+pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<String> {
     let s = Scenario::load(scenario)?;
     let file = scenario.display().to_string();
     let keeps = Keeps {
         copies: 1.0,
         frames: s.output.frames,
         runs: 1.0,
+        recorded: s.output.records(),
     };
     check_plate(&file, &s.thermal, &s.material, keeps)?;
     let part = load_part(&s.part)?;
     let mut dir = RunDir::create(out)?;
     let b = super::plan::build(&s, &part)?;
+    let print = checkpoint::of_run("simulate", &s.to_json(), b.deposits());
+    let mut folder = checkpoint::Folder::open(out, "simulate", print, resume)?;
     check(
         &file,
         &s.thermal,
@@ -36,23 +41,35 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
         b.deposits().last().map_or(0.0, |d| d.time),
         keeps,
     )?;
-    let sim = heat(&b, &Cooling::default(), s.output.frames)?;
+    let mut ck = Checkpoints::to(&mut folder);
+    let sim = heat(&b, &Cooling::default(), s.output.frames, &mut ck, "heat")?;
     super::plan::write_plan(&mut dir, &s, &b)?;
     write_thermal(&mut dir, &b, &sim)?;
     record(&mut dir, &s, &part, &b, &sim, None)?;
     dir.finish("simulate", s.to_json())?;
+    folder.close()?;
     Ok(summary(&b, &sim))
 }
 
 /// The build heated as `cooling` says, behind a spinner on a terminal; with `frames` > 0 also
 /// the step-by-step temperature of the points the temperature-history plot shows.
-pub fn heat(b: &Build, cooling: &Cooling, frames: usize) -> Result<Simulation> {
+pub fn heat(
+    b: &Build,
+    cooling: &Cooling,
+    frames: usize,
+    ck: &mut Checkpoints<'_>,
+    stage: &str,
+) -> Result<Simulation> {
     let bar = crate::progress::Bar::start("heating the build", b.plan.points.len() as u64);
     let traces = match frames {
         0 => Vec::new(),
         _ => crate::record::history_points(b.plan.points.len()).to_vec(),
     };
-    Ok(b.simulate_observed(cooling, frames, traces, &mut |k, n| bar.set(k, n))?)
+    Ok(
+        b.simulate_kept(cooling, frames, traces, ck, stage, &mut |k, n| {
+            bar.set(k, n)
+        })?,
+    )
 }
 
 /// The inspection outputs the scenario switches on (`[output]`): run.rrd, run.mcap, fields.h5

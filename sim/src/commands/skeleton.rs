@@ -81,6 +81,7 @@ fn cost(file: &Path, s: &Scenario, run: &LoopRun) -> Result<()> {
         copies: 1.0,
         frames: 0,
         runs: 1.0,
+        recorded: false,
     };
     super::cost::check(
         &file.display().to_string(),

@@ -39,12 +39,23 @@ pub struct Study {
     pub cases: Vec<Case>,
 }
 
+/// Most cases a study may have: a few short lists in `[sweep]` multiply to any number, and each
+/// case is checked (a scenario built) before anything runs.
+pub const MAX_CASES: usize = 10_000;
+
 pub fn load(path: &Path) -> Result<Study> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| Error::input(format!("{file}: {e}")))?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    parse(&text, &file, dir)
+}
+
+/// A study from its text; `file` names it in errors, its base scenario is read from `dir`.
+pub fn parse(text: &str, file: &str, dir: &Path) -> Result<Study> {
+    let file = file.to_string();
     let table: toml::Table =
-        toml::from_str(&text).map_err(|e| Error::input(format!("{file}: {}", e.message())))?;
-    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        toml::from_str(text).map_err(|e| Error::input(format!("{file}: {}", e.message())))?;
+    let dir = dir.to_path_buf();
     let base = table
         .get("base")
         .and_then(|v| v.as_str())
@@ -73,6 +84,37 @@ pub fn load(path: &Path) -> Result<Study> {
     }
     let mut combos: Vec<Vec<(String, toml::Value)>> = vec![vec![]];
     if let Some(sweep) = table.get("sweep").and_then(|v| v.as_table()) {
+        let mut count = 1usize;
+        for (key, values) in sweep {
+            let values = values.as_array().ok_or_else(|| {
+                Error::input(format!("{file}: sweep.\"{key}\" must be a list of values"))
+            })?;
+            count = count.saturating_mul(values.len());
+        }
+        let listed = table
+            .get("case")
+            .and_then(|v| v.as_array())
+            .map_or(0, |l| l.len());
+        if count.saturating_add(listed) > MAX_CASES {
+            return Err(Error::input(format!(
+                "{file}: [sweep] makes {} cases ({}){}; expected at most {MAX_CASES}",
+                if count == usize::MAX {
+                    "more than 10^19".to_string()
+                } else {
+                    count.to_string()
+                },
+                sweep
+                    .iter()
+                    .map(|(k, v)| format!("{k}: {}", v.as_array().map_or(0, |a| a.len())))
+                    .collect::<Vec<_>>()
+                    .join(" × "),
+                if listed > 0 {
+                    format!(" and [[case]] {listed} more")
+                } else {
+                    String::new()
+                }
+            )));
+        }
         for (key, values) in sweep {
             let values = values.as_array().ok_or_else(|| {
                 Error::input(format!("{file}: sweep.\"{key}\" must be a list of values"))
@@ -101,6 +143,12 @@ pub fn load(path: &Path) -> Result<Study> {
     if combos.is_empty() {
         return Err(Error::input(format!(
             "{file}: no cases; expected a [sweep] or [[case]] entries"
+        )));
+    }
+    if combos.len() > MAX_CASES {
+        return Err(Error::input(format!(
+            "{file}: {} cases; expected at most {MAX_CASES}",
+            combos.len()
         )));
     }
     let cases = combos
@@ -241,6 +289,7 @@ fn default_jobs(study: &Study) -> Result<usize> {
         copies,
         frames: 0,
         runs: 1.0,
+        recorded: false,
     };
     super::cost::check_plate(&study.file, &base.thermal, &base.material, keeps)?;
     let m = crate::pipeline::deposition::material(&base.material, &base.thermal);

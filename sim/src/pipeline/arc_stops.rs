@@ -19,7 +19,7 @@ use thermal::ThermalError;
 pub const WEIGHTS_S: [f64; 6] = [0.0, 10.0, 30.0, 100.0, 300.0, 1000.0];
 
 /// One plan of the front.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Tried {
     pub weight_s: f64,
     pub arc_stops: usize,
@@ -30,7 +30,7 @@ pub struct Tried {
     pub slowed_points: usize,
     pub drops: usize,
     /// The closing strategy ([`super::dwell::Closing::name`]).
-    pub closing: &'static str,
+    pub closing: String,
 }
 
 /// The arc starts after the first: each dwell and each drop.
@@ -48,12 +48,12 @@ fn tried(b: &Build, weight_s: f64, plan: &DwellPlan) -> Tried {
         build_time_s: build.last().map_or(0.0, |d| d.time),
         slowed_points: c.slowed(),
         drops: c.drops(),
-        closing: plan.closing.name(),
+        closing: plan.closing.name().into(),
     }
 }
 
 /// A plan within an arc-stop budget, or the one with the fewest stops found.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Budgeted {
     pub plan: DwellPlan,
     pub weight_s: f64,
@@ -126,7 +126,7 @@ mod tests {
             build_time_s: build,
             slowed_points: 0,
             drops: 0,
-            closing: "not_needed",
+            closing: "not_needed".into(),
         }
     }
 

@@ -7,6 +7,7 @@
 //! Pure arithmetic on the schedule: no model is built, nothing is allocated for the cells, so a
 //! run too large for the machine is refused at once.
 
+use super::deposition::PLATE_LAYERS;
 use super::params::{ThermalModel, ThermalSettings};
 use thermal::schedule::Deposit;
 
@@ -27,6 +28,10 @@ pub const STEP_OVERHEAD_S: f64 = 6.8e-5;
 
 /// Bytes per thin-wall node, all it keeps (its matrices' rows included).
 pub const NODE_BYTES: f64 = 2_000.0;
+
+/// Nanoseconds per active thin-wall node and deposit (its steps' conjugate-gradient
+/// iterations included), measured on this machine's kind (docs/PERFORMANCE.md).
+pub const NODE_NS_PER_STEP: f64 = 200.0;
 
 /// The estimate of one run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,14 +89,7 @@ pub fn estimate(
             let metal: f64 = deposits
                 .iter()
                 .enumerate()
-                .map(|(i, d)| {
-                    let start = thermal::schedule::segment_start(deposits, i);
-                    let len = (0..3)
-                        .map(|k| (d.position[k] - start[k]).powi(2))
-                        .sum::<f64>()
-                        .sqrt();
-                    d.width * d.height * (len + dx)
-                })
+                .map(|(i, d)| d.width * d.height * (segment(deposits, i) + dx))
                 .sum::<f64>()
                 / dx.powi(3);
             let cells = plate + metal;
@@ -110,19 +108,51 @@ pub fn estimate(
             }
         }
         ThermalModel::Fe => {
-            let nodes = deposits.len() as f64 * 4.0;
+            // Nodes group deposits at least `node_m` long (never fewer than one a deposit
+            // shorter); the plate is a grid of cells a few layers deep.
+            let path: f64 = (0..deposits.len()).map(|i| segment(deposits, i)).sum();
+            let wall = (path / t.node_m)
+                .ceil()
+                .clamp(1.0, deposits.len().max(1) as f64);
+            let [px, py, _] = t.plate_m;
+            let cell = t.plate_cell_m;
+            let plate = (px / cell).ceil() * (py / cell).ceil() * PLATE_LAYERS as f64;
+            let nodes = wall + plate;
+            let steps = deposits.len() as f64;
             Estimate {
                 model: t.model,
                 cells: nodes,
-                plate_cells: 0.0,
-                steps: deposits.len() as f64,
+                plate_cells: plate,
+                steps,
                 bytes: BASE_BYTES
                     + nodes * NODE_BYTES * copies
                     + frame_bytes(deposits.len(), frames),
-                seconds: 0.0,
+                seconds: steps * (plate + wall / 2.0) * NODE_NS_PER_STEP * 1e-9,
             }
         }
     }
+}
+
+/// Length of deposit i's bead segment, m.
+fn segment(deposits: &[Deposit], i: usize) -> f64 {
+    let (d, start) = (&deposits[i], thermal::schedule::segment_start(deposits, i));
+    (0..3)
+        .map(|k| (d.position[k] - start[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// What recording a run's frames holds besides the frames themselves, bytes per point and
+/// frame: the scene's per-point values in interface units, the sinks' buffers (rerun's batches,
+/// the HDF5 file built in memory). Measured as the peak RSS with every output on less the same
+/// run with none, over points × frames: 196 B on the demo dome (4 501 points), 283 B on the
+/// cylinder (10 440), 100 frames each (docs/PERFORMANCE.md).
+pub const RECORDED_BYTES_PER_POINT_FRAME: f64 = 300.0;
+
+/// The memory the recording of `frames` field frames of `deposits` points takes, bytes.
+pub fn recording_bytes(deposits: usize, frames: usize) -> f64 {
+    let n = frames.min(super::FIELD_BUDGET / deposits.max(1));
+    RECORDED_BYTES_PER_POINT_FRAME * (n * deposits) as f64
 }
 
 /// The field frames kept: one temperature per deposit per frame (f64), the frames bounded as

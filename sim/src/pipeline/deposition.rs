@@ -11,7 +11,7 @@ use thermal::wall::WallSettings;
 use thermal::{HeatModel, Plate};
 
 /// Cell layers through the plate's thickness (see the model comparison in PHYSICS.md).
-const PLATE_LAYERS: usize = 3;
+pub(crate) const PLATE_LAYERS: usize = 3;
 
 /// Longest time step of the thin wall during dwells and cooling, s.
 const MAX_COOLING_STEP_S: f64 = 30.0;
@@ -21,7 +21,7 @@ const VOXEL_COURANT: f64 = 0.9;
 
 /// How the build is cooled, per path point: what the dwell planner decides. Empty vectors (or
 /// shorter ones) mean no dwell, the planned pace, no drop.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Cooling {
     /// The arc's pause before the point, s.
     pub dwell_s: Vec<f64>,

@@ -25,12 +25,15 @@
 //! limit, as skeleton arc AM lays its nodes). It says which ([`Closing`]), and which points none
 //! keeps safe.
 
+use super::checkpoint::Checkpoints;
 use super::deposition::Cooling;
 use super::pace::Pacing;
 use super::params::DwellSettings;
 use super::risk::{Criteria, Risk, judge, judge_for_dwell};
 use bead_model::bond::bond_number;
 use planner::plan::Plan;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 use thermal::schedule::{Deposit, DropPart, read_points, strike_readings};
 use thermal::{CoolingSteps, HeatModel, HeatRun, Support, ThermalError};
 
@@ -126,7 +129,7 @@ fn revolutions(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<Revolution> {
 }
 
 /// How the planner closed a closed part, where revolutions get too short for a dwell to act.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Closing {
     /// No point is laid on metal just laid (an open part), or the closing zone is safe as the
     /// revolutions before it were planned.
@@ -153,7 +156,7 @@ impl Closing {
     }
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct DwellPlan {
     /// Per deposit: the dwell before it, its pace, whether it is a drop.
     pub cooling: Cooling,
@@ -359,12 +362,27 @@ struct Remedy<R> {
 
 /// Plan the cooling of the build `deps` (its schedule as planned) on `run`, a fresh run of any
 /// heat model on it; `lead` is where the model reads preheat.
-pub fn plan_dwells<R: HeatRun>(
+pub fn plan_dwells<R: HeatRun + Serialize + DeserializeOwned>(
     s: &Search,
     pl: &Plan,
     deps: &[Deposit],
     lead: f64,
     run: R,
+) -> Result<DwellPlan, ThermalError> {
+    plan_dwells_kept(s, pl, deps, lead, run, &mut Checkpoints::off(), "")
+}
+
+/// [`plan_dwells`], keeping the search's state under `stage` between two revolutions (when
+/// `ck` says the interval has passed) and going on from the state kept there. The closing
+/// strategy, planned last, is not kept part-way.
+pub fn plan_dwells_kept<R: HeatRun + Serialize + DeserializeOwned>(
+    s: &Search,
+    pl: &Plan,
+    deps: &[Deposit],
+    lead: f64,
+    run: R,
+    ck: &mut Checkpoints<'_>,
+    stage: &str,
 ) -> Result<DwellPlan, ThermalError> {
     let n = deps.len();
     let revs = revolutions(pl, deps, lead);
@@ -399,7 +417,16 @@ pub fn plan_dwells<R: HeatRun>(
     let near = super::risk::closing_zone(pl, s.dwell.closing_zone_mm);
     let mut zone = zone;
     let until = zone.unwrap_or(p.revs.len());
-    for r in 0..until {
+    let mut from = 0;
+    if let Some(k) = ck.load::<Kept<R>>(stage) {
+        from = k.next;
+        zone = k.zone;
+        p.resume(k);
+    }
+    for r in from..until {
+        if r > from {
+            ck.save_if_due(stage, || p.kept(r, zone));
+        }
         let rev = p.revs[r];
         let copy = near[rev.first..rev.end]
             .iter()
@@ -420,6 +447,34 @@ pub fn plan_dwells<R: HeatRun>(
     }
     p.plan.cost_builds = p.simulated as f64 / n.max(1) as f64;
     Ok(p.plan)
+}
+
+/// The search's state between two revolutions as a checkpoint keeps it: [`Planner`] without
+/// what it borrows or derives from the build. Written from [`KeptRef`], field for field.
+#[derive(Deserialize)]
+struct Kept<R> {
+    next: usize,
+    zone: Option<usize>,
+    plan: DwellPlan,
+    run: R,
+    cursor: usize,
+    pace: f64,
+    before: Option<(R, std::ops::Range<usize>)>,
+    last_dwell: f64,
+    simulated: usize,
+}
+
+#[derive(Serialize)]
+struct KeptRef<'a, R> {
+    next: usize,
+    zone: Option<usize>,
+    plan: &'a DwellPlan,
+    run: &'a R,
+    cursor: usize,
+    pace: f64,
+    before: &'a Option<(R, std::ops::Range<usize>)>,
+    last_dwell: f64,
+    simulated: usize,
 }
 
 /// The search's state as it walks the build.
@@ -444,6 +499,32 @@ struct Planner<'a, R> {
 }
 
 impl<R: HeatRun> Planner<'_, R> {
+    /// The state to keep before revolution `next`.
+    fn kept(&self, next: usize, zone: Option<usize>) -> KeptRef<'_, R> {
+        KeptRef {
+            next,
+            zone,
+            plan: &self.plan,
+            run: &self.run,
+            cursor: self.cursor,
+            pace: self.pace,
+            before: &self.before,
+            last_dwell: self.last_dwell,
+            simulated: self.simulated,
+        }
+    }
+
+    /// Go on from a kept state.
+    fn resume(&mut self, k: Kept<R>) {
+        self.plan = k.plan;
+        self.run = k.run;
+        self.cursor = k.cursor;
+        self.pace = k.pace;
+        self.before = k.before;
+        self.last_dwell = k.last_dwell;
+        self.simulated = k.simulated;
+    }
+
     /// Go back to `copy`, keeping the count of what was simulated since.
     fn restore(&mut self, copy: Self) {
         let simulated = self.simulated;
@@ -961,7 +1042,7 @@ pub fn dwell_points(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<usize> {
 }
 
 /// The uniform-dwell baseline: the same dwell before every revolution.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Uniform {
     /// The smallest dwell that keeps the points before `until` safe, s; `None` if not even the
     /// longest does.

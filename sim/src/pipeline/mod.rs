@@ -37,6 +37,7 @@
 pub mod arc_stops;
 pub mod beads;
 pub mod calibrate;
+pub mod checkpoint;
 pub mod cost;
 pub mod deposition;
 pub mod dwell;
@@ -49,6 +50,7 @@ pub mod skeleton;
 pub use params::Params;
 
 use beads::Beads;
+use checkpoint::Checkpoints;
 use deposition::Cooling;
 use dwell::{DwellPlan, Search};
 use pace::Pacing;
@@ -57,9 +59,8 @@ use planner::mesh::Part;
 use planner::plan::{Plan, PlanParams};
 use risk::{Criteria, Risk, judge};
 use std::fmt;
-use std::time::Instant;
 use thermal::schedule::Deposit;
-use thermal::{HeatModel, RunResult, ThermalError};
+use thermal::{HeatModel, HeatRun, ModelRun, RunResult, ThermalError};
 
 /// What can stop the engine: the part cannot be planned, or the heat model cannot take the
 /// build or fails on it.
@@ -180,6 +181,21 @@ impl Build {
         traces: Vec<usize>,
         laid: &mut dyn FnMut(usize, usize),
     ) -> Result<Simulation, ThermalError> {
+        self.simulate_kept(cooling, frames, traces, &mut Checkpoints::off(), "", laid)
+    }
+
+    /// [`Build::simulate_observed`] with checkpoints: the run is kept under `stage.run` as it
+    /// goes and its result under `stage`; a run that resumes takes the result, or goes on from
+    /// the run kept part-way.
+    pub fn simulate_kept(
+        &self,
+        cooling: &Cooling,
+        frames: usize,
+        traces: Vec<usize>,
+        ck: &mut Checkpoints<'_>,
+        stage: &str,
+        laid: &mut dyn FnMut(usize, usize),
+    ) -> Result<Simulation, ThermalError> {
         let deposits = deposition::schedule(&self.params.process, &self.plan, &self.beads, cooling);
         let build_s = deposits.last().map_or(0.0, |d| d.time);
         let times = match frames {
@@ -189,9 +205,19 @@ impl Build {
         let mut model = self.heat_model(&deposits, times);
         model.set_traces(traces);
         model.set_trace_hottest(true);
-        let clock = Instant::now();
         let n = deposits.len();
-        let result = model.simulate_observed(&deposits, &mut |k| laid(k, n))?;
+        let (result, wall_s) = ck.stage(stage, |ck, progress| {
+            let mut run = match ck.load::<ModelRun>(progress) {
+                Some(run) => run,
+                None => model.start(&deposits)?,
+            };
+            laid(run.laid(), n);
+            thermal::run::replay_observed(&mut run, &deposits, &mut |r| {
+                laid(r.laid(), n);
+                ck.save_if_due(progress, || r);
+            })?;
+            Ok::<_, ThermalError>(run.finish())
+        })?;
         Ok(Simulation {
             dwell_s: (0..n).map(|i| cooling.dwell(i)).collect(),
             pace: (0..n).map(|i| cooling.pace(i)).collect(),
@@ -199,7 +225,7 @@ impl Build {
             deposits,
             result,
             model: model.name(),
-            wall_clock_s: clock.elapsed().as_secs_f64(),
+            wall_clock_s: wall_s,
         })
     }
 
@@ -230,6 +256,17 @@ impl Build {
 
     /// [`Build::plan_dwells`] with an arc stop weighed as `weight_s` seconds of build time.
     pub fn plan_dwells_weighted(&self, weight_s: f64) -> Result<DwellPlan, ThermalError> {
+        self.plan_dwells_kept(weight_s, &mut Checkpoints::off(), "")
+    }
+
+    /// [`Build::plan_dwells_weighted`], the search kept under `stage` between revolutions
+    /// ([`dwell::plan_dwells_kept`]).
+    pub fn plan_dwells_kept(
+        &self,
+        weight_s: f64,
+        ck: &mut Checkpoints<'_>,
+        stage: &str,
+    ) -> Result<DwellPlan, ThermalError> {
         let model = self.heat_model(&self.deposits, Vec::new());
         let run = model.start(&self.deposits)?;
         let dwell = DwellSettings {
@@ -241,7 +278,8 @@ impl Build {
             dwell: &dwell,
             ..self.search(&pacing)
         };
-        dwell::plan_dwells(&search, &self.plan, &self.deposits, model.lead(), run)
+        let (pl, deps, lead) = (&self.plan, &self.deposits, model.lead());
+        dwell::plan_dwells_kept(&search, pl, deps, lead, run, ck, stage)
     }
 
     /// Per path point, whether it lies in the closing zone (`[dwell] closing_zone_mm`).

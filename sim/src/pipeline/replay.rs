@@ -226,6 +226,16 @@ pub fn errors(pairs: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64)> {
 /// to `until_s` if the last comes earlier. A run stopped at T and advanced to T' gives what
 /// one advanced to T' at once does, but for how its cooling is cut into steps.
 pub fn advance(run: &mut impl HeatRun, deps: &[Deposit], until_s: f64) -> Result<(), ThermalError> {
+    advance_observed(run, deps, until_s, &mut |_| {})
+}
+
+/// [`advance`], showing `after` the run after each deposit (a caller's checkpoints).
+pub fn advance_observed<R: HeatRun>(
+    run: &mut R,
+    deps: &[Deposit],
+    until_s: f64,
+    after: &mut dyn FnMut(&R),
+) -> Result<(), ThermalError> {
     for (i, d) in deps.iter().enumerate().skip(run.laid()) {
         if d.arc_start() >= until_s {
             break;
@@ -241,6 +251,7 @@ pub fn advance(run: &mut impl HeatRun, deps: &[Deposit], until_s: f64) -> Result
             false => previous_end,
         };
         run.deposit(i, (d.arc_start() - from).max(0.0))?;
+        after(run);
     }
     if until_s > run.now() {
         run.cool(until_s - run.now())?;

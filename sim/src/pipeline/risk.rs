@@ -62,7 +62,7 @@ impl Criteria {
 }
 
 /// Why a point is at risk.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Risk {
     Interpass,
     Strength,

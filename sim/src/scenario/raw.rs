@@ -400,6 +400,13 @@ pub struct RawOutput {
     pub frames: usize,
 }
 
+impl RawOutput {
+    /// Whether any sink records the run (and builds its scene of every kept frame).
+    pub fn records(&self) -> bool {
+        self.rerun || self.mcap || self.hdf5 || self.plots || self.report
+    }
+}
+
 impl Default for RawOutput {
     fn default() -> Self {
         Self {

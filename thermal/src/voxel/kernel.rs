@@ -15,7 +15,7 @@ use crate::material::Material;
 /// dx·(Φ_j − Φ_i), exact for steady 1-D conduction whatever k(T) does (Carslaw and Jaeger 1959
 /// §1.7): the heat equation ρ·∂h/∂t = ∇²Φ becomes a linear stencil on Φ, and the only
 /// nonlinearity left is one table read per voxel. Interpolation error below 0.01 K.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub(super) struct Tables {
     h0: f32,
     inv_dh: f32,
@@ -94,7 +94,7 @@ pub(super) struct Coefficients {
 /// neighbours across a face are themselves consecutive voxels (everywhere in the plate, and
 /// wherever metal was laid in grid order) the face is `regular`: one load at `base` reads them
 /// and the kernel streams 4 bytes for the face instead of 32.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(super) struct Group {
     /// The first voxel's neighbour across each face.
     pub base: [u32; 6],

@@ -21,7 +21,7 @@ use crate::run::{
 use crate::schedule::{Deposit, read_fractions, segment_start, validate};
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use std::sync::Arc;
 
 /// Active voxels per chunk: the unit of the ledger's partial sums, so results do not depend on
@@ -31,7 +31,7 @@ const CHUNK: usize = 4096;
 /// work to another thread (measured: a 16 000-voxel set ran slower on two threads than on one).
 const CHUNKS_PER_TASK: usize = 4;
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VoxelSettings {
     pub material: Material,
     pub surroundings: Surroundings,
@@ -61,7 +61,7 @@ pub struct VoxelSettings {
 }
 
 /// How the heat of a deposit enters the part.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub enum HeatSource {
     /// Goldak's double ellipsoid sized by the bead: the arc's, heating through the pool.
     #[default]
@@ -102,7 +102,7 @@ impl Goldak {
     }
 }
 
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct VoxelModel {
     settings: VoxelSettings,
     tables: Tables,
@@ -144,7 +144,9 @@ pub struct VoxelModel {
     plate_top: HashMap<(usize, usize), u32>,
     updates: u64,
     steps: usize,
-    /// The processor runs the AVX2 kernel.
+    /// The processor runs the AVX2 kernel: asked of the processor a run resumes on, never
+    /// taken from a saved state.
+    #[serde(skip, default = "kernel::simd_available")]
     simd: bool,
     /// Active voxels 0..plate_voxels are the plate's (it is switched on first).
     plate_voxels: usize,
@@ -153,7 +155,7 @@ pub struct VoxelModel {
 }
 
 /// A plate of another material than the deposit: its tables, and the faces where the two meet.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 struct Substrate {
     material: Material,
     tables: Tables,
@@ -232,7 +234,7 @@ impl VoxelModel {
             tables: Tables::new(&s.material, s.surroundings.ambient_k),
             origin: lo,
             dims,
-            index: HashMap::new(),
+            index: HashMap::default(),
             cell: vec![],
             neighbours: Default::default(),
             face_weight: vec![],
@@ -248,7 +250,7 @@ impl VoxelModel {
             laid: vec![Vec::new(); deps.len()],
             below,
             sink,
-            plate_top: HashMap::new(),
+            plate_top: HashMap::default(),
             updates: 0,
             steps: 0,
             simd: kernel::simd_available(),
@@ -792,28 +794,33 @@ impl VoxelModel {
         };
         let dx = self.settings.size;
         let reach = 3.0 * g.cr + dx;
-        let mut w = Vec::new();
         let lo: [isize; 3] =
             std::array::from_fn(|k| ((pool[k] - reach - self.origin[k]) / dx).floor() as isize);
         let hi: [isize; 3] =
             std::array::from_fn(|k| ((pool[k] + reach - self.origin[k]) / dx).ceil() as isize);
-        for iz in lo[2].max(0)..=hi[2].min(self.dims[2] as isize - 1) {
-            for iy in lo[1].max(0)..=hi[1].min(self.dims[1] as isize - 1) {
-                for ix in lo[0].max(0)..=hi[0].min(self.dims[0] as isize - 1) {
-                    if let Some(&v) =
-                        self.index
-                            .get(&self.flat(ix as usize, iy as usize, iz as usize))
-                    {
-                        let r = sub(self.centre(ix as usize, iy as usize, iz as usize), pool);
+        // The box is tens of thousands of cells at fine voxels, once per deposit: its slices go
+        // to the threads and come back in order, so the weights are the same on any number.
+        let slices: Vec<Vec<(u32, f64)>> = (lo[2].max(0)..=hi[2].min(self.dims[2] as isize - 1))
+            .into_par_iter()
+            .map(|iz| {
+                let mut w = Vec::new();
+                for iy in lo[1].max(0)..=hi[1].min(self.dims[1] as isize - 1) {
+                    for ix in lo[0].max(0)..=hi[0].min(self.dims[0] as isize - 1) {
+                        let (ix, iy, iz) = (ix as usize, iy as usize, iz as usize);
+                        let Some(&v) = self.index.get(&self.flat(ix, iy, iz)) else {
+                            continue;
+                        };
+                        let r = sub(self.centre(ix, iy, iz), pool);
                         let wt = g.weight(dot(r, tangent), dot(r, across), dot(r, d.axis).min(0.0));
                         if wt > 0.0 {
                             w.push((v, wt));
                         }
                     }
                 }
-            }
-        }
-        w
+                w
+            })
+            .collect();
+        slices.concat()
     }
 
     /// Gaussian surface weights: the active voxels with their top exposed (no voxel above),
@@ -929,7 +936,7 @@ impl VoxelModel {
 
 /// A voxel run in progress, one deposit at a time (the [`HeatRun`] contract). Cloning it is a
 /// checkpoint: the active set is copied whole.
-#[derive(Clone)]
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct VoxelRun {
     model: VoxelModel,
     deps: Arc<Vec<Deposit>>,
