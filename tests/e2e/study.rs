@@ -2,7 +2,7 @@
 //! shards whose merged summary equals the local run's.
 
 use crate::{root, scratch};
-use std::process::Command;
+use std::process::{Command, Output};
 
 fn write_study(dir: &std::path::Path) -> std::path::PathBuf {
     std::fs::write(
@@ -204,30 +204,35 @@ fn slurm_runs_a_study_as_a_job_array() {
     );
 }
 
-/// A case whose overrides make a bad scenario is refused before anything runs, in one line that
-/// names the study file, the case, its overrides and the key with its value, and no line number
-/// of text the user never wrote.
-#[test]
-fn a_bad_case_names_the_study_file_and_the_case() {
-    let dir = scratch("study_bad_case");
+/// `study NAME -o out` in a fresh folder `scratch`, beside a small cylinder as `base.toml`.
+fn run_study_file(scratch_name: &str, name: &str, text: &str) -> (std::path::PathBuf, Output) {
+    let dir = scratch(scratch_name);
     std::fs::write(
         dir.join("base.toml"),
         "[part]\nshape = \"cylinder\"\nradius_mm = 25.0\nheight_mm = 14.0\n",
     )
     .unwrap();
-    let study = dir.join("bad_study.toml");
-    std::fs::write(
-        &study,
-        "base = \"base.toml\"\n[[case]]\n\"thermal.voxel_mm\" = 1.0\n[[case]]\n\"thermal.voxel_mm\" = 0.01\n",
-    )
-    .unwrap();
+    std::fs::write(dir.join(name), text).unwrap();
     let out = study_cmd(&[
-        study.to_str().unwrap(),
+        dir.join(name).to_str().unwrap(),
         "-o",
         dir.join("out").to_str().unwrap(),
     ])
     .output()
     .unwrap();
+    (dir, out)
+}
+
+/// A case whose overrides make a bad scenario is refused before anything runs, in one line that
+/// names the study file, the case, its overrides and the key with its value, and no line number
+/// of text the user never wrote.
+#[test]
+fn a_bad_case_names_the_study_file_and_the_case() {
+    let (dir, out) = run_study_file(
+        "study_bad_case",
+        "bad_study.toml",
+        "base = \"base.toml\"\n[[case]]\n\"thermal.voxel_mm\" = 1.0\n[[case]]\n\"thermal.voxel_mm\" = 0.01\n",
+    );
     crate::assert_input_error(
         &out,
         &[
@@ -252,27 +257,13 @@ fn a_bad_case_names_the_study_file_and_the_case() {
 /// 10^20 cases).
 #[test]
 fn a_sweep_of_too_many_cases_is_refused_at_once() {
-    let dir = scratch("study_too_many");
-    std::fs::write(
-        dir.join("base.toml"),
-        "[part]\nshape = \"cylinder\"\nradius_mm = 25.0\nheight_mm = 14.0\n",
-    )
-    .unwrap();
-    let study = dir.join("huge.toml");
     let mut text = String::from("base = \"base.toml\"\n[sweep]\n");
     for key in ["process.travel_speed_mm_s", "thermal.convection_w_m2k"] {
         let values: Vec<String> = (0..101).map(|k| format!("{}.0", 5 + k)).collect();
         text += &format!("\"{key}\" = [{}]\n", values.join(", "));
     }
-    std::fs::write(&study, text).unwrap();
     let clock = std::time::Instant::now();
-    let out = study_cmd(&[
-        study.to_str().unwrap(),
-        "-o",
-        dir.join("out").to_str().unwrap(),
-    ])
-    .output()
-    .unwrap();
+    let (_, out) = run_study_file("study_too_many", "huge.toml", &text);
     crate::assert_input_error(
         &out,
         &[

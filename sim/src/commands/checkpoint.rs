@@ -1,7 +1,7 @@
 //! A run's checkpoint folder, `OUT/checkpoint/`: one file per stage the engine keeps
-//! ([`crate::pipeline::checkpoint`]), written under a temporary name and renamed, at most every
-//! `--checkpoint-every-s` seconds; `--resume` goes on from them. A finished run removes the
-//! folder.
+//! ([`crate::pipeline::checkpoint`]), written under a temporary name and renamed: work in
+//! progress at most every `--checkpoint-every-s` seconds, a stage's result as it ends;
+//! `--resume` goes on from them. A finished run removes the folder.
 //!
 //! A file is one header line and the engine's bytes:
 //!
@@ -40,7 +40,8 @@ pub struct Options {
     /// in OUT/checkpoint (refused if they are another's).
     #[arg(long)]
     pub resume: bool,
-    /// Keep the run's state in OUT/checkpoint at most this often, s (0: at every chance).
+    /// Keep the work in progress in OUT/checkpoint at most this often, s (0: at every chance);
+    /// a stage's result is kept as the stage ends.
     #[arg(long, default_value_t = 60.0)]
     pub checkpoint_every_s: f64,
 }

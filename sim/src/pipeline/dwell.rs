@@ -418,7 +418,7 @@ pub fn plan_dwells_kept<R: HeatRun + Serialize + DeserializeOwned>(
     let mut zone = zone;
     let until = zone.unwrap_or(p.revs.len());
     let mut from = 0;
-    if let Some(k) = ck.load::<Kept<R>>(stage) {
+    if let Some(k) = ck.load::<KeptOwned<R>>(stage) {
         from = k.next;
         zone = k.zone;
         p.resume(k);
@@ -450,32 +450,24 @@ pub fn plan_dwells_kept<R: HeatRun + Serialize + DeserializeOwned>(
 }
 
 /// The search's state between two revolutions as a checkpoint keeps it: [`Planner`] without
-/// what it borrows or derives from the build. Written from [`KeptRef`], field for field.
-#[derive(Deserialize)]
-struct Kept<R> {
+/// what it borrows or derives from the build. Written from borrows ([`KeptRef`]), read back
+/// owned ([`KeptOwned`]): one layout, so the two cannot drift apart.
+#[derive(Serialize, Deserialize)]
+struct Kept<P, R, B> {
     next: usize,
     zone: Option<usize>,
-    plan: DwellPlan,
+    plan: P,
     run: R,
     cursor: usize,
     pace: f64,
-    before: Option<(R, std::ops::Range<usize>)>,
+    before: B,
     last_dwell: f64,
     simulated: usize,
 }
 
-#[derive(Serialize)]
-struct KeptRef<'a, R> {
-    next: usize,
-    zone: Option<usize>,
-    plan: &'a DwellPlan,
-    run: &'a R,
-    cursor: usize,
-    pace: f64,
-    before: &'a Option<(R, std::ops::Range<usize>)>,
-    last_dwell: f64,
-    simulated: usize,
-}
+type Before<R> = Option<(R, std::ops::Range<usize>)>;
+type KeptRef<'a, R> = Kept<&'a DwellPlan, &'a R, &'a Before<R>>;
+type KeptOwned<R> = Kept<DwellPlan, R, Before<R>>;
 
 /// The search's state as it walks the build.
 #[derive(Clone)]
@@ -493,7 +485,7 @@ struct Planner<'a, R> {
     pace: f64,
     /// The run before the last stretch was laid, and that stretch: slowing a revolution down
     /// lays it again.
-    before: Option<(R, std::ops::Range<usize>)>,
+    before: Before<R>,
     last_dwell: f64,
     simulated: usize,
 }
@@ -501,7 +493,7 @@ struct Planner<'a, R> {
 impl<R: HeatRun> Planner<'_, R> {
     /// The state to keep before revolution `next`.
     fn kept(&self, next: usize, zone: Option<usize>) -> KeptRef<'_, R> {
-        KeptRef {
+        Kept {
             next,
             zone,
             plan: &self.plan,
@@ -515,7 +507,7 @@ impl<R: HeatRun> Planner<'_, R> {
     }
 
     /// Go on from a kept state.
-    fn resume(&mut self, k: Kept<R>) {
+    fn resume(&mut self, k: KeptOwned<R>) {
         self.plan = k.plan;
         self.run = k.run;
         self.cursor = k.cursor;
