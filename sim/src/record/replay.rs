@@ -55,12 +55,7 @@ fn rrd(
     probes: &[ProbeSeries],
 ) -> Result<()> {
     let e = fail("run.rrd");
-    let staged = dir.stage("run.rrd");
-    let rec = rerun::RecordingStreamBuilder::new("waamtwin")
-        .save(&staged)
-        .map_err(|x| e(x.to_string()))?;
-    rec.send_recording_name(title)
-        .map_err(|x| e(x.to_string()))?;
+    let (rec, staged) = super::rerun_sink::open(dir, title)?;
     let plots: Vec<(f32, Node)> = shown(probes.len())
         .into_iter()
         .map(|k| {

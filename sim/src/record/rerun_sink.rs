@@ -42,6 +42,17 @@ fn fail(e: impl std::fmt::Display) -> Error {
     Error::failure(format!("run.rrd: {e}"))
 }
 
+/// A rerun recording named `title`, saving to run.rrd's staged name in `dir` (renamed into place
+/// by `RunDir::commit` once written): every run.rrd this crate writes starts here.
+pub(crate) fn open(dir: &RunDir, title: &str) -> Result<(RecordingStream, std::path::PathBuf)> {
+    let staged = dir.stage("run.rrd");
+    let rec = RecordingStreamBuilder::new("waamtwin")
+        .save(&staged)
+        .map_err(fail)?;
+    rec.send_recording_name(title).map_err(fail)?;
+    Ok((rec, staged))
+}
+
 fn f32x3(p: [f64; 3]) -> [f32; 3] {
     [p[0] as f32, p[1] as f32, p[2] as f32]
 }
@@ -54,11 +65,7 @@ impl RerunSink {
 
 impl Sink for RerunSink {
     fn begin(&mut self, scene: &Scene, dir: &RunDir) -> Result<()> {
-        let staged = dir.stage("run.rrd");
-        let rec = RecordingStreamBuilder::new("waamtwin")
-            .save(&staged)
-            .map_err(fail)?;
-        rec.send_recording_name(scene.title.clone()).map_err(fail)?;
+        let (rec, staged) = open(dir, &scene.title)?;
         rec.send_property(
             "scenario",
             &rerun::AnyValues::default()

@@ -77,12 +77,7 @@ fn rrd(
     drops: &[DropView],
 ) -> Result<()> {
     let e = fail("run.rrd");
-    let staged = dir.stage("run.rrd");
-    let rec = rerun::RecordingStreamBuilder::new("waamtwin")
-        .save(&staged)
-        .map_err(|x| e(x.to_string()))?;
-    rec.send_recording_name(title)
-        .map_err(|x| e(x.to_string()))?;
+    let (rec, staged) = super::rerun_sink::open(dir, title)?;
     let layout = Node::Row(vec![
         (2.0, view("3D", "drops", "world", &["world/**"])),
         (
