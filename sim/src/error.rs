@@ -59,7 +59,15 @@ impl std::error::Error for Error {}
 /// failure, with its time, place and value, is ours (exit 1).
 impl From<thermal::ThermalError> for Error {
     fn from(e: thermal::ThermalError) -> Self {
-        let message = format!("thermal: {e}");
+        let mut message = format!("thermal: {e}");
+        if let thermal::ThermalError::OutsidePlate { .. } = e {
+            // The one key that moves the plate's edge: the user's `plate_mm` (a left-out one is
+            // fitted to the part and holds it).
+            message.push_str(
+                "; expected a plate that holds the part: [thermal] plate_mm larger, or left out \
+                 to fit the plate to the part",
+            );
+        }
         if e.is_input() {
             Error::input(message)
         } else {
@@ -100,6 +108,8 @@ mod tests {
             x_mm: 400.0,
             y_mm: 0.0,
         };
-        assert_eq!(Error::from(outside).exit_code(), 2);
+        let e = Error::from(outside);
+        assert_eq!(e.exit_code(), 2);
+        assert!(e.message.contains("plate_mm"), "{}", e.message);
     }
 }

@@ -252,6 +252,7 @@ fn asymmetric_dome_closing_point() {
     let p = part(
         Shape::AsymmetricDome {
             radius_mm: 80.0,
+            radius_y_mm: 80.0,
             height_mm: 140.0,
             lean_mm: 30.0,
         },

@@ -19,6 +19,7 @@ fn library() -> Vec<(Shape, &'static str, usize)> {
                 radius_mm: 40.0,
                 top_radius_mm: 20.0,
                 height_mm: 50.0,
+                top_slope_mm: 0.0,
             },
             "open",
             2,
@@ -39,6 +40,7 @@ fn library() -> Vec<(Shape, &'static str, usize)> {
         (
             Shape::AsymmetricDome {
                 radius_mm: 40.0,
+                radius_y_mm: 40.0,
                 height_mm: 60.0,
                 lean_mm: 15.0,
             },

@@ -150,6 +150,38 @@ pub fn read_fractions(deps: &[Deposit], lead: f64) -> Vec<Option<(usize, f64)>> 
         .collect()
 }
 
+/// Where the torch is when it is at `fraction` of deposit `j`'s segment (a reading moment of
+/// [`read_fractions`]), m.
+pub fn torch_at(deps: &[Deposit], j: usize, fraction: f64) -> [f64; 3] {
+    let (a, b) = (segment_start(deps, j), deps[j].position);
+    std::array::from_fn(|k| a[k] + fraction * (b[k] - a[k]))
+}
+
+/// Per deposit, whether the metal it lies on counts as just laid when its preheat is read
+/// (`reads`, as [`read_fractions`] gives them): laid during or after the reading deposit, or
+/// within `reach(i)` of the torch at that moment. There the reading is the arc's own heat and
+/// no dwell can come between the metal and the point laid on it.
+///
+/// The torch is where the reading puts it, inside the reading deposit's segment, not at that
+/// segment's end: at a revolution's seam the end of the deposit being laid lies beside the
+/// revolution's first point, whose metal is a revolution old. Judged by that end, the first point
+/// of every revolution of an elliptic leaning dome was "just laid", and the dwell planner laid
+/// the whole part as drops from its second revolution on (issue 27).
+pub fn just_laid(
+    deps: &[Deposit],
+    reads: &[Option<(usize, f64)>],
+    reach: impl Fn(usize) -> f64,
+) -> Vec<bool> {
+    (0..deps.len())
+        .map(|i| match (deps[i].support, reads[i]) {
+            (Some(s), Some((r, f))) => {
+                s >= r || distance(deps[s].position, torch_at(deps, r, f)) < reach(i)
+            }
+            _ => false,
+        })
+        .collect()
+}
+
 /// Length of deposited path at each deposit, m.
 fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
     let mut s = vec![0.0; deps.len()];

@@ -14,7 +14,7 @@ use crate::run::{
     Burn, Cells, CoolingSteps, Drops, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult,
     Snapshot, Support, Trace, replay,
 };
-use crate::schedule::{Deposit, read_fractions, segment_start, validate};
+use crate::schedule::{Deposit, just_laid, read_fractions, segment_start, validate};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -337,8 +337,9 @@ pub struct WallRun {
     /// Per deposit, the deposit during whose arc its preheat is read (dwell-independent: the
     /// torch is `lead` upstream along the path).
     probes_at: Arc<Vec<Vec<(usize, f64)>>>,
-    /// Per deposit, the deposit during whose arc its preheat is read.
-    read_at: Arc<Vec<Option<usize>>>,
+    /// Per deposit, whether it lies on metal just laid when its preheat is read
+    /// ([`crate::schedule::just_laid`], within the footprint).
+    just_laid: Arc<Vec<bool>>,
     points: Vec<PointResult>,
     time_above: Vec<f64>,
     peak: Vec<f64>,
@@ -372,7 +373,7 @@ impl WallRun {
         let mut probes_at = vec![Vec::new(); deps.len()];
         let mut points = vec![PointResult::default(); deps.len()];
         let reads = read_fractions(deps, s.lead);
-        let read_at: Vec<Option<usize>> = reads.iter().map(|r| r.map(|(j, _)| j)).collect();
+        let just_laid = just_laid(deps, &reads, |_| s.footprint);
         for (k, &r) in reads.iter().enumerate() {
             match r {
                 Some((j, f)) => probes_at[j].push((k, f)),
@@ -388,7 +389,7 @@ impl WallRun {
         WallRun {
             deps: Arc::new(deps.to_vec()),
             probes_at: Arc::new(probes_at),
-            read_at: Arc::new(read_at),
+            just_laid: Arc::new(just_laid),
             points,
             time_above: vec![0.0; n],
             peak: vec![s.surroundings.ambient_k; n],
@@ -615,13 +616,9 @@ impl HeatRun for WallRun {
 
     fn support(&self, i: usize) -> Support {
         let (b, own) = (self.below[i], self.model.node_of[i]);
-        let footprint = self.settings.footprint;
-        let deps = &self.deps;
         // A drop's reading is taken as its own arc strikes, after the wait before it: the metal
         // beneath is no longer the arc's.
-        let read_after_support = !self.drops.contains(i)
-            && matches!((deps[i].support, self.read_at[i]),
-                (Some(s), Some(r)) if s >= r || dist(deps[s].position, deps[r].position) < footprint);
+        let read_after_support = !self.drops.contains(i) && self.just_laid[i];
         if b >= self.model.n_wall {
             Support::Plate
         } else if b >= own || read_after_support {

@@ -127,6 +127,7 @@ fn cone_frustum_slant_distance() {
             radius_mm: r0,
             top_radius_mm: r1,
             height_mm: h,
+            top_slope_mm: 0.0,
         },
         1.5,
     );
@@ -387,6 +388,7 @@ fn same_distances_on_one_or_two_threads() {
     let p = part(
         Shape::AsymmetricDome {
             radius_mm: 40.0,
+            radius_y_mm: 40.0,
             height_mm: 50.0,
             lean_mm: 10.0,
         },

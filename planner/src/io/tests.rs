@@ -121,6 +121,7 @@ fn classification_of_the_library() {
                 radius_mm: 30.0,
                 top_radius_mm: 15.0,
                 height_mm: 40.0,
+                top_slope_mm: 0.0,
             },
             PartKind::Open,
         ),
@@ -139,6 +140,7 @@ fn classification_of_the_library() {
         (
             Shape::AsymmetricDome {
                 radius_mm: 30.0,
+                radius_y_mm: 30.0,
                 height_mm: 40.0,
                 lean_mm: 10.0,
             },

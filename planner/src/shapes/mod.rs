@@ -17,11 +17,13 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 pub enum Shape {
     /// Open cylinder of radius R and height H.
     Cylinder { radius_mm: f64, height_mm: f64 },
-    /// Open cone frustum from `radius_mm` at z = 0 to `top_radius_mm` at z = H.
+    /// Open cone frustum from `radius_mm` at z = 0 to `top_radius_mm` at z = H, its upper
+    /// boundary cut by the tilted plane z_top(θ) = H + slope·cos θ (flat at slope 0).
     ConeFrustum {
         radius_mm: f64,
         top_radius_mm: f64,
         height_mm: f64,
+        top_slope_mm: f64,
     },
     /// Open vase: r(z) = R + bulge·sin(π z / H), upper boundary
     /// z_top(θ) = H + slope·cos θ + wave·sin(waves·θ) (sloped and sinusoidal, non-planar).
@@ -35,13 +37,22 @@ pub enum Shape {
     },
     /// Closed hemisphere of radius R on z = 0.
     Hemisphere { radius_mm: f64 },
-    /// Closed dome symmetric about the xz plane only: a half ellipsoid of base radius R and height
-    /// H whose upper part leans towards −x by `lean_mm`·(z/H)², which changes the curvature on one
-    /// side (the CTPP paper's closed part, Fig. 23, is of this kind).
+    /// Closed dome symmetric about the xz plane only: a half ellipsoid of base semi-axes R (x) and
+    /// R_y (y) and height H whose upper part leans towards −x by `lean_mm`·(z/H)², which changes
+    /// the curvature on one side (the CTPP paper's closed part, Fig. 23, is of this kind).
     AsymmetricDome {
         radius_mm: f64,
+        radius_y_mm: f64,
         height_mm: f64,
         lean_mm: f64,
+    },
+    /// Open bottle of height H: a cylinder of radius R, a shoulder narrowing to the neck's radius
+    /// r_n over a height R − r_n (a cosine blend, tangent to both), and a neck of height h_n.
+    Bottle {
+        radius_mm: f64,
+        height_mm: f64,
+        neck_radius_mm: f64,
+        neck_height_mm: f64,
     },
     /// Quarter torus tube: x = (R + r cos v) cos u − R, y = r sin v, z = (R + r cos v) sin u,
     /// u ∈ [0, π/2]. Lower boundary the circle of radius r at z = 0, upper one at x = −R.
@@ -61,6 +72,7 @@ impl Shape {
             Shape::Vase { .. } => "vase",
             Shape::Hemisphere { .. } => "hemisphere",
             Shape::AsymmetricDome { .. } => "asymmetric_dome",
+            Shape::Bottle { .. } => "bottle",
             Shape::QuarterTorus { .. } => "quarter_torus",
             Shape::Disk { .. } => "disk",
         }
@@ -81,10 +93,12 @@ impl Shape {
                 radius_mm: r0,
                 top_radius_mm: r1,
                 height_mm: h,
+                top_slope_mm: slope,
             } => ring_mesh(
                 move |th, t| {
-                    let r = r0 + (r1 - r0) * t;
-                    Point3::new(r * th.cos(), r * th.sin(), h * t)
+                    let z = t * (h + slope * th.cos());
+                    let r = r0 + (r1 - r0) * z / h;
+                    Point3::new(r * th.cos(), r * th.sin(), z)
                 },
                 false,
                 edge_mm,
@@ -126,6 +140,7 @@ impl Shape {
             ),
             Shape::AsymmetricDome {
                 radius_mm: r,
+                radius_y_mm: ry,
                 height_mm: h,
                 lean_mm,
             } => ring_mesh(
@@ -133,9 +148,23 @@ impl Shape {
                     let phi = FRAC_PI_2 * (1.0 - t);
                     let z = h * phi.cos();
                     let x = r * phi.sin() * th.cos() - lean_mm * (z / h).powi(2);
-                    Point3::new(x, r * phi.sin() * th.sin(), z)
+                    Point3::new(x, ry * phi.sin() * th.sin(), z)
                 },
                 true,
+                edge_mm,
+            ),
+            Shape::Bottle {
+                radius_mm: r,
+                height_mm: h,
+                neck_radius_mm: rn,
+                neck_height_mm: hn,
+            } => ring_mesh(
+                move |th, t| {
+                    let z = h * t;
+                    let rho = bottle_radius(r, h, rn, hn, z);
+                    Point3::new(rho * th.cos(), rho * th.sin(), z)
+                },
+                false,
                 edge_mm,
             ),
             Shape::QuarterTorus {
@@ -156,6 +185,20 @@ impl Shape {
                 edge_mm,
             ),
         }
+    }
+}
+
+/// A bottle's radius at height z: the body, the shoulder's cosine blend, the neck.
+fn bottle_radius(r: f64, h: f64, rn: f64, hn: f64, z: f64) -> f64 {
+    let shoulder_top = h - hn;
+    let shoulder_bottom = shoulder_top - (r - rn);
+    if z <= shoulder_bottom {
+        r
+    } else if z >= shoulder_top {
+        rn
+    } else {
+        let s = (z - shoulder_bottom) / (r - rn);
+        rn + (r - rn) * 0.5 * (1.0 + (PI * s).cos())
     }
 }
 

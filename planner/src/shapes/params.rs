@@ -14,7 +14,7 @@ pub struct Signature {
 }
 
 /// Every shape of the library.
-pub const SIGNATURES: [Signature; 7] = [
+pub const SIGNATURES: [Signature; 8] = [
     Signature {
         name: "cylinder",
         needs: &["radius_mm", "height_mm"],
@@ -23,7 +23,7 @@ pub const SIGNATURES: [Signature; 7] = [
     Signature {
         name: "cone_frustum",
         needs: &["radius_mm", "top_radius_mm", "height_mm"],
-        optional: &[],
+        optional: &["top_slope_mm"],
     },
     Signature {
         name: "vase",
@@ -38,7 +38,12 @@ pub const SIGNATURES: [Signature; 7] = [
     Signature {
         name: "asymmetric_dome",
         needs: &["radius_mm", "height_mm"],
-        optional: &["lean_mm"],
+        optional: &["radius_y_mm", "lean_mm"],
+    },
+    Signature {
+        name: "bottle",
+        needs: &["radius_mm", "height_mm", "neck_radius_mm", "neck_height_mm"],
+        optional: &[],
     },
     Signature {
         name: "quarter_torus",
@@ -171,11 +176,23 @@ impl Shape {
                 radius_mm: get("radius_mm")?,
                 height_mm: get("height_mm")?,
             },
-            "cone_frustum" => Shape::ConeFrustum {
-                radius_mm: get("radius_mm")?,
-                top_radius_mm: get("top_radius_mm")?,
-                height_mm: get("height_mm")?,
-            },
+            "cone_frustum" => {
+                let height_mm = get("height_mm")?;
+                let top_slope_mm = get("top_slope_mm")?;
+                if top_slope_mm.abs() >= height_mm {
+                    return Err(out_of_range(
+                        "top_slope_mm",
+                        top_slope_mm,
+                        format!("smaller than height_mm ({height_mm}) in magnitude"),
+                    ));
+                }
+                Shape::ConeFrustum {
+                    radius_mm: get("radius_mm")?,
+                    top_radius_mm: get("top_radius_mm")?,
+                    height_mm,
+                    top_slope_mm,
+                }
+            }
             "vase" => {
                 let (radius_mm, height_mm) = (get("radius_mm")?, get("height_mm")?);
                 let (bulge_mm, top_slope_mm, top_wave_mm) =
@@ -214,11 +231,56 @@ impl Shape {
             "hemisphere" => Shape::Hemisphere {
                 radius_mm: get("radius_mm")?,
             },
-            "asymmetric_dome" => Shape::AsymmetricDome {
-                radius_mm: get("radius_mm")?,
-                height_mm: get("height_mm")?,
-                lean_mm: get("lean_mm")?,
-            },
+            "asymmetric_dome" => {
+                let radius_mm = get("radius_mm")?;
+                let radius_y_mm = match get("radius_y_mm")? {
+                    0.0 => radius_mm,
+                    v if v > 0.0 => v,
+                    v => {
+                        return Err(out_of_range(
+                            "radius_y_mm",
+                            v,
+                            "a positive length (left out: radius_mm, a round base)".into(),
+                        ));
+                    }
+                };
+                Shape::AsymmetricDome {
+                    radius_mm,
+                    radius_y_mm,
+                    height_mm: get("height_mm")?,
+                    lean_mm: get("lean_mm")?,
+                }
+            }
+            "bottle" => {
+                let (radius_mm, height_mm) = (get("radius_mm")?, get("height_mm")?);
+                let (neck_radius_mm, neck_height_mm) =
+                    (get("neck_radius_mm")?, get("neck_height_mm")?);
+                if neck_radius_mm >= radius_mm {
+                    return Err(out_of_range(
+                        "neck_radius_mm",
+                        neck_radius_mm,
+                        format!("smaller than radius_mm ({radius_mm})"),
+                    ));
+                }
+                let body = height_mm - neck_height_mm - (radius_mm - neck_radius_mm);
+                if body <= 0.0 {
+                    return Err(out_of_range(
+                        "height_mm",
+                        height_mm,
+                        format!(
+                            "more than neck_height_mm + radius_mm − neck_radius_mm ({}), the \
+                             neck and the shoulder",
+                            neck_height_mm + radius_mm - neck_radius_mm
+                        ),
+                    ));
+                }
+                Shape::Bottle {
+                    radius_mm,
+                    height_mm,
+                    neck_radius_mm,
+                    neck_height_mm,
+                }
+            }
             "quarter_torus" => {
                 let (big, small) = (get("bend_radius_mm")?, get("tube_radius_mm")?);
                 if small >= big {
@@ -251,7 +313,8 @@ impl Shape {
                 radius_mm,
                 top_radius_mm,
                 height_mm,
-            } => (2.0 * radius_mm.max(top_radius_mm)).max(height_mm),
+                top_slope_mm,
+            } => (2.0 * radius_mm.max(top_radius_mm)).max(height_mm + top_slope_mm.abs()),
             Shape::Vase {
                 radius_mm,
                 height_mm,
@@ -264,9 +327,17 @@ impl Shape {
             Shape::Hemisphere { radius_mm } | Shape::Disk { radius_mm } => 2.0 * radius_mm,
             Shape::AsymmetricDome {
                 radius_mm,
+                radius_y_mm,
                 height_mm,
                 lean_mm,
-            } => (2.0 * radius_mm + lean_mm.abs()).max(height_mm),
+            } => (2.0 * radius_mm + lean_mm.abs())
+                .max(2.0 * radius_y_mm)
+                .max(height_mm),
+            Shape::Bottle {
+                radius_mm,
+                height_mm,
+                ..
+            } => (2.0 * radius_mm).max(height_mm),
             Shape::QuarterTorus {
                 bend_radius_mm,
                 tube_radius_mm,
@@ -285,7 +356,16 @@ mod tests {
             let given: Vec<(&str, Option<f64>)> = sig
                 .needs
                 .iter()
-                .map(|&k| (k, Some(if k == "tube_radius_mm" { 5.0 } else { 20.0 })))
+                .map(|&k| {
+                    let small = ["tube_radius_mm", "neck_radius_mm", "neck_height_mm"];
+                    // A bottle is taller than its neck and shoulder.
+                    let v = match k {
+                        _ if small.contains(&k) => 5.0,
+                        "height_mm" if sig.name == "bottle" => 40.0,
+                        _ => 20.0,
+                    };
+                    (k, Some(v))
+                })
                 .collect();
             let shape = Shape::from_params(sig.name, &given).unwrap();
             assert_eq!(shape.name(), sig.name);

@@ -76,7 +76,7 @@ pub fn plan_and_dwell(
     };
     super::cost::check(
         file,
-        &s.thermal,
+        &b.params.thermal,
         &s.material,
         b.deposits(),
         b.deposits().last().map_or(0.0, |d| d.time),
@@ -106,7 +106,7 @@ pub fn plan_and_dwell(
     let after = heat(&b, &plan.cooling, s.output.frames, &mut ck, "after")?;
     let (pl, d) = (&b.plan, &b.params.dwell);
     let risks_after = after.risks(&b.criteria);
-    let zone = b.closing_zone();
+    let zone = b.closing_zone(&after);
     let risky_after: Vec<usize> = (0..pl.points.len())
         .filter(|&i| risks_after[i].is_some())
         .collect();

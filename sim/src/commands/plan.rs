@@ -78,10 +78,27 @@ pub fn write_plan(dir: &mut RunDir, s: &Scenario, b: &Build) -> Result<()> {
     let mut json = plan_json(s, pl);
     json["bead"] = bead_json(s, pl, &b.beads);
     json["interlayer"] = write_interlayer(dir, s, pl)?;
+    json["plate"] = plate_json(b);
     dir.write_json("plan.json", &json)?;
     dir.write("generators.csv", generators_csv(pl).as_bytes())?;
     dir.write("path.csv", path_csv(b).as_bytes())?;
     Ok(())
+}
+
+/// The plate the heat models run on: its size, where it lies, and whether it was fitted to the
+/// part (`[thermal] plate_mm` left out) or given.
+fn plate_json(b: &Build) -> Value {
+    let t = &b.params.thermal;
+    let centre = crate::pipeline::deposition::plate_centre(b.deposits());
+    let footprint = crate::pipeline::footprint_m(b.deposits());
+    json!({
+        "size_mm": t.plate_m.map(|v| v * 1e3),
+        "centre_mm": centre.map(|v| v * 1e3),
+        "source": if t.plate_fit { "fitted" } else { "scenario" },
+        "footprint_mm": footprint.map(|v| v * 1e3),
+        "margin_mm": crate::pipeline::PLATE_MARGIN_M * 1e3,
+        "shape": if t.plate_disc { "disc" } else { "box" },
+    })
 }
 
 /// The local inter-layer distance of the spiral (each point against the closest of the

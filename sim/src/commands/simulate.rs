@@ -35,7 +35,7 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let mut folder = checkpoint::Folder::open(out, "simulate", print, resume)?;
     check(
         &file,
-        &s.thermal,
+        &b.params.thermal,
         &s.material,
         b.deposits(),
         b.deposits().last().map_or(0.0, |d| d.time),
@@ -124,7 +124,7 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
     let (err_lo, err_hi) = planner::plan::range(built.iter().map(|b| b.height_error * 1e3));
     let (so_lo, so_hi) = planner::plan::range(built.iter().map(|b| b.stickout * 1e3));
     let r = &sim.result;
-    let zone = b.closing_zone();
+    let zone = b.closing_zone(sim);
     let risks = sim.risks(&b.criteria);
     // Revolutions with a point at risk, and whether that point is in the closing zone.
     let mut risky: Vec<(usize, bool)> = Vec::new();

@@ -220,6 +220,7 @@ mod tests {
             model: ThermalModel::Voxel,
             voxel_m: 0.25e-3,
             plate_m: [1.0, 1.0, 0.05],
+            plate_fit: false,
             plate_disc: false,
             ..crate::scenario::Scenario::parse(
                 "[part]\nshape = \"hemisphere\"\nradius_mm = 20\n",

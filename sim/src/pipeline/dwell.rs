@@ -386,10 +386,10 @@ pub fn plan_dwells_kept<R: HeatRun + Serialize + DeserializeOwned>(
 ) -> Result<DwellPlan, ThermalError> {
     let n = deps.len();
     let revs = revolutions(pl, deps, lead);
-    // The closing zone: from the first revolution with a point laid on metal just laid.
-    let zone = revs
-        .iter()
-        .position(|rev| (rev.first..rev.end).any(|k| run.support(k) == Support::JustLaid));
+    // The closing zone: from the revolutions at the top that each lie in part on metal just
+    // laid (`risk::just_laid_from`).
+    let zone = super::risk::just_laid_from(pl, |k| run.support(k))
+        .and_then(|first| revs.iter().position(|rev| rev.first == first));
     let judged = judged_at(deps, lead);
     let mut p = Planner {
         s,
@@ -414,7 +414,7 @@ pub fn plan_dwells_kept<R: HeatRun + Serialize + DeserializeOwned>(
     // The closing zone starts earlier where a revolution near the closing point (within
     // `closing_zone_mm`) is left with points no dwell keeps safe: the revolution is planned again
     // from a copy of the search taken before it.
-    let near = super::risk::closing_zone(pl, s.dwell.closing_zone_mm);
+    let near = super::risk::closing_zone(pl, s.dwell.closing_zone_mm, |k| p.run.support(k));
     let mut zone = zone;
     let until = zone.unwrap_or(p.revs.len());
     let mut from = 0;

@@ -121,10 +121,43 @@ pub struct Simulation {
     pub wall_clock_s: f64,
 }
 
+/// The margin a fitted plate leaves around the part's footprint on each side, m: room for the
+/// first bead's width and the heat it spreads into the plate (a few bead widths).
+pub const PLATE_MARGIN_M: f64 = 0.025;
+
+/// The plate a part needs: the size `least` in x and y grown to the footprint of the deposits
+/// laid on the plate plus [`PLATE_MARGIN_M`] on each side (the plate is centred under that
+/// footprint, [`deposition::plate_centre`]); the thickness is `least`'s.
+pub fn plate_fitted(least: [f64; 3], deposits: &[Deposit]) -> [f64; 3] {
+    let [w, d] = footprint_m(deposits);
+    [
+        least[0].max(w + 2.0 * PLATE_MARGIN_M),
+        least[1].max(d + 2.0 * PLATE_MARGIN_M),
+        least[2],
+    ]
+}
+
+/// The extent in x and y of the deposits laid on the plate (their centre lines), m.
+pub fn footprint_m(deposits: &[Deposit]) -> [f64; 2] {
+    let on_plate = deposits.iter().filter(|d| d.support.is_none());
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for d in on_plate {
+        for k in 0..2 {
+            lo[k] = lo[k].min(d.position[k] - 0.5 * d.width);
+            hi[k] = hi[k].max(d.position[k] + 0.5 * d.width);
+        }
+    }
+    std::array::from_fn(|k| (hi[k] - lo[k]).max(0.0))
+}
+
 impl Build {
-    pub fn new(plan: Plan, params: Params) -> Build {
+    /// The build of `plan`; where `params` asks for a fitted plate, the plate grown to the part.
+    pub fn new(plan: Plan, mut params: Params) -> Build {
         let beads = beads::beads(&params.process, &params.material, &plan.points);
         let deposits = deposition::schedule(&params.process, &plan, &beads, &Cooling::default());
+        if params.thermal.plate_fit {
+            params.thermal.plate_m = plate_fitted(params.thermal.plate_m, &deposits);
+        }
         let criteria = Criteria::new(&params);
         Build {
             plan,
@@ -282,9 +315,18 @@ impl Build {
         dwell::plan_dwells_kept(&search, pl, deps, lead, run, ck, stage)
     }
 
-    /// Per path point, whether it lies in the closing zone (`[dwell] closing_zone_mm`).
-    pub fn closing_zone(&self) -> Vec<bool> {
-        risk::closing_zone(&self.plan, self.params.dwell.closing_zone_mm)
+    /// Per path point, whether it lies in the closing zone of `sim` (within `[dwell]
+    /// closing_zone_mm` of the closing point, or from the revolution where the revolutions start
+    /// to lie on metal just laid, [`risk::closing_zone`]): the zone the dwell planner's closing
+    /// strategy works in.
+    pub fn closing_zone(&self, sim: &Simulation) -> Vec<bool> {
+        // A drop reads its preheat as it strikes, on metal no longer the arc's; the planner lays
+        // drops only where the points lay on metal just laid.
+        let support = |i: usize| match sim.drop[i] {
+            Some(_) => thermal::Support::JustLaid,
+            None => sim.result.support[i],
+        };
+        risk::closing_zone(&self.plan, self.params.dwell.closing_zone_mm, support)
     }
 
     /// Per revolution: start, duration, preheat max and mean, dwell.

@@ -91,6 +91,9 @@ pub struct ThermalSettings {
     pub convection_w_m2k: f64,
     pub emissivity: f64,
     pub plate_m: [f64; 3],
+    /// `plate_m` is the least plate, grown in x and y to the part's footprint on it plus
+    /// [`super::PLATE_MARGIN_M`] a side ([`super::plate_fitted`]); false: the plate the user gave.
+    pub plate_fit: bool,
     /// The plate is a disc of diameter `plate_m[0]`.
     pub plate_disc: bool,
     pub lead_m: f64,

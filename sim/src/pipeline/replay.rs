@@ -399,6 +399,7 @@ mod checkpoint_tests {
             convection_w_m2k: 15.0,
             emissivity: 0.6,
             plate_m: [60e-3, 30e-3, 10e-3],
+            plate_fit: false,
             plate_disc: false,
             lead_m: 10e-3,
         };

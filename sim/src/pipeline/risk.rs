@@ -125,15 +125,42 @@ fn judged(c: &Criteria, p: &PointResult, on_a_layer: bool, margin_k: f64) -> Opt
     None
 }
 
-/// Per path point: whether it lies within `radius_mm` of a closed part's closing point (its
-/// closing zone, where revolutions get short enough that the torch heats a revolution's own
-/// substrate; none on an open part).
-pub fn closing_zone(pl: &Plan, radius_mm: f64) -> Vec<bool> {
+/// Per path point: whether it lies in a closed part's closing zone, where revolutions get short
+/// enough that the torch heats a revolution's own substrate: within `radius_mm` of the closing
+/// point, or at or after [`just_laid_from`] (`support`: what each point lies on). None on an
+/// open part whose revolutions stay long.
+pub fn closing_zone(pl: &Plan, radius_mm: f64, support: impl Fn(usize) -> Support) -> Vec<bool> {
+    let from = just_laid_from(pl, support).unwrap_or(usize::MAX);
     pl.points
         .iter()
-        .map(|q| {
-            pl.closing_point
-                .is_some_and(|c| (q.position - c).norm() < radius_mm)
+        .enumerate()
+        .map(|(i, q)| {
+            i >= from
+                || pl
+                    .closing_point
+                    .is_some_and(|c| (q.position - c).norm() < radius_mm)
         })
         .collect()
+}
+
+/// The first point of the last run of revolutions that each have a point laid on metal just laid
+/// (the top of a closed part, where a revolution is not much longer than the torch's reach), if
+/// the last revolution has one. A revolution with none ends the run: a stray point of a long
+/// revolution (an unequal seam, say) does not start a closing strategy half-way up the part.
+pub fn just_laid_from(pl: &Plan, support: impl Fn(usize) -> Support) -> Option<usize> {
+    let mut from = None;
+    let mut end = pl.points.len();
+    while end > 0 {
+        let layer = pl.points[end - 1].layer;
+        let first = pl.points[..end]
+            .iter()
+            .rposition(|q| q.layer != layer)
+            .map_or(0, |k| k + 1);
+        if !(first..end).any(|k| support(k) == Support::JustLaid) {
+            break;
+        }
+        from = Some(first);
+        end = first;
+    }
+    from
 }

@@ -23,6 +23,9 @@ use std::path::{Path, PathBuf};
 use thermal::ZERO_CELSIUS_K as KELVIN;
 
 const MM: f64 = 1e-3;
+/// The plate where `[thermal] plate_mm` is left out: a common 250 mm square stock plate,
+/// grown to fit a larger part (`pipeline::plate_fitted`).
+const DEFAULT_PLATE_MM: [f64; 3] = [250.0, 250.0, 10.0];
 const M_MIN: f64 = 1.0 / 60.0;
 
 /// Where the part's mid-surface comes from.
@@ -331,14 +334,16 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         1.0,
         "between 0 and 1",
     )?;
+    let plate_fit = t.plate_mm.is_none();
+    let plate_mm = t.plate_mm.unwrap_or(DEFAULT_PLATE_MM);
     let plate_disc = match (t.plate_shape.as_str(), model) {
         ("box", _) => false,
-        ("disc", ThermalModel::Voxel) if t.plate_mm[0] == t.plate_mm[1] => true,
+        ("disc", ThermalModel::Voxel) if plate_mm[0] == plate_mm[1] => true,
         ("disc", ThermalModel::Voxel) => {
             return Err(c.fail(
                 "thermal",
                 "plate_mm",
-                format!("{:?}", t.plate_mm),
+                format!("{plate_mm:?}"),
                 "a disc's diameter twice: [d, d, thickness]",
             ));
         }
@@ -359,12 +364,12 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
             ));
         }
     };
-    for (k, v) in t.plate_mm.iter().enumerate() {
+    for (k, v) in plate_mm.iter().enumerate() {
         if !(v.is_finite() && *v > 0.0 && *v <= 10_000.0) {
             return Err(c.fail(
                 "thermal",
                 "plate_mm",
-                format!("{:?}", t.plate_mm),
+                format!("{plate_mm:?}"),
                 &format!("three sizes in (0, 10000] mm (entry {k} is {v})"),
             ));
         }
@@ -453,7 +458,8 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         ambient_k: t.ambient_c + KELVIN,
         convection_w_m2k: t.convection_w_m2k,
         emissivity: t.emissivity,
-        plate_m: t.plate_mm.map(|v| v * MM),
+        plate_m: plate_mm.map(|v| v * MM),
+        plate_fit,
         plate_disc,
         lead_m: t.lead_mm * MM,
     })

@@ -116,7 +116,13 @@ pub struct RawPart {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub top_waves: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
+    pub radius_y_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub lean_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub neck_radius_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub neck_height_mm: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bend_radius_mm: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -130,7 +136,7 @@ pub struct RawPart {
 
 impl RawPart {
     /// The shape parameters by the names `planner::shapes::SIGNATURES` uses.
-    pub fn shape_params(&self) -> [(&'static str, Option<f64>); 10] {
+    pub fn shape_params(&self) -> [(&'static str, Option<f64>); 13] {
         [
             ("radius_mm", self.radius_mm),
             ("top_radius_mm", self.top_radius_mm),
@@ -139,7 +145,10 @@ impl RawPart {
             ("top_slope_mm", self.top_slope_mm),
             ("top_wave_mm", self.top_wave_mm),
             ("top_waves", self.top_waves.map(f64::from)),
+            ("radius_y_mm", self.radius_y_mm),
             ("lean_mm", self.lean_mm),
+            ("neck_radius_mm", self.neck_radius_mm),
+            ("neck_height_mm", self.neck_height_mm),
             ("bend_radius_mm", self.bend_radius_mm),
             ("tube_radius_mm", self.tube_radius_mm),
         ]
@@ -240,7 +249,9 @@ pub struct RawThermal {
     pub ambient_c: f64,
     pub convection_w_m2k: f64,
     pub emissivity: f64,
-    pub plate_mm: [f64; 3],
+    /// x, y, thickness; absent: a plate fitted to the part (`pipeline::plate_fitted`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plate_mm: Option<[f64; 3]>,
     pub lead_mm: f64,
     /// Contact conductance between the plate and the table.
     pub table_contact_w_m2k: f64,
@@ -269,7 +280,7 @@ impl Default for RawThermal {
             ambient_c: 20.0,
             convection_w_m2k: 15.0,
             emissivity: 0.6,
-            plate_mm: [250.0, 250.0, 10.0],
+            plate_mm: None,
             lead_mm: 10.0,
             table_contact_w_m2k: 100.0,
             plate_cell_mm: 5.0,

@@ -18,7 +18,7 @@ use crate::run::{
     Burn, Cells, CoolingSteps, Drops, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult,
     Snapshot, Support, Trace, replay,
 };
-use crate::schedule::{Deposit, read_fractions, segment_start, validate};
+use crate::schedule::{Deposit, just_laid, read_fractions, segment_start, validate};
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
@@ -945,8 +945,9 @@ pub struct VoxelRun {
     /// Per deposit, the preheats read during its arc: (point, fraction of the arc), as the
     /// thin wall reads them (dwell-independent: the torch is `lead` upstream along the path).
     probes_at: Arc<Vec<Vec<(usize, f64)>>>,
-    /// Per deposit, the deposit during whose arc its preheat is read.
-    read_at: Arc<Vec<Option<usize>>>,
+    /// Per deposit, whether it lies on metal just laid when its preheat is read
+    /// ([`crate::schedule::just_laid`], within the source's rear length).
+    just_laid: Arc<Vec<bool>>,
     points: Vec<PointResult>,
     snapshots: Vec<Snapshot>,
     traces: Vec<Trace>,
@@ -999,7 +1000,7 @@ impl VoxelRun {
             now,
             deps: Arc::new(deps.to_vec()),
             probes_at: Arc::new(probes_at),
-            read_at: Arc::new(reads.iter().map(|r| r.map(|(j, _)| j)).collect()),
+            just_laid: Arc::new(just_laid(deps, &reads, |i| Goldak::rear(deps[i].width))),
             points,
             snapshots: Vec::new(),
             traces: model
@@ -1175,19 +1176,12 @@ impl HeatRun for VoxelRun {
     /// length (c_r, one bead width: the thin wall's default footprint) of the torch then, where
     /// the reading is the arc's own heat and no dwell can come between the two.
     fn support(&self, i: usize) -> Support {
-        let d = &self.deps[i];
-        match (d.support, self.read_at[i]) {
-            (None, _) => Support::Plate,
+        match self.deps[i].support {
+            None => Support::Plate,
             // A drop is read as its arc strikes, after the wait before it.
-            (Some(_), _) if self.drops.contains(i) => Support::Deposit,
-            (Some(s), Some(r))
-                if s >= r
-                    || norm(sub(self.deps[s].position, self.deps[r].position))
-                        < Goldak::rear(d.width) =>
-            {
-                Support::JustLaid
-            }
-            _ => Support::Deposit,
+            Some(_) if self.drops.contains(i) => Support::Deposit,
+            Some(_) if self.just_laid[i] => Support::JustLaid,
+            Some(_) => Support::Deposit,
         }
     }
 
