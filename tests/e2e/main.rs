@@ -6,6 +6,7 @@ mod ctpp;
 mod determinism;
 mod dwell;
 mod export;
+mod family;
 mod inspect;
 mod outputs;
 mod replay;

@@ -39,6 +39,9 @@ pub struct Ledger {
     pub convection: f64,
     pub radiation: f64,
     pub table: f64,
+    /// Heat taken out at once by [`crate::HeatRun::quench`] (a bound's "cooled to ambient").
+    #[serde(default)]
+    pub quenched: f64,
 }
 
 impl Ledger {
@@ -46,7 +49,7 @@ impl Ledger {
         self.source + self.deposited
     }
     pub fn lost(&self) -> f64 {
-        self.convection + self.radiation + self.table
+        self.convection + self.radiation + self.table + self.quenched
     }
 }
 
@@ -200,6 +203,18 @@ impl Network {
         self.h[i] = self.material.enthalpy(t);
         self.t[i] = t;
         self.ledger.deposited += self.mass[i] * (self.h[i] - self.h_ambient);
+    }
+
+    /// Every active node at ambient at once, the heat taken out booked as quenched.
+    pub fn quench(&mut self) {
+        let ambient = self.surroundings.ambient_k;
+        for i in 0..self.len() {
+            if self.active[i] {
+                self.ledger.quenched += self.mass[i] * (self.h[i] - self.h_ambient);
+                self.h[i] = self.h_ambient;
+                self.t[i] = ambient;
+            }
+        }
     }
 
     /// Enthalpy stored above ambient in the active nodes, J.

@@ -284,6 +284,11 @@ pub trait HeatRun: Clone {
     ) -> Result<(), ThermalError>;
     /// Let the part cool with the arc off for `duration` seconds.
     fn cool(&mut self, duration: f64) -> Result<(), ThermalError>;
+    /// Bring all the metal laid so far, and the plate, to ambient at once, the clock unmoved: the
+    /// coolest state any history of the part can leave before its next deposit (the heat taken out
+    /// is booked in the ledger's `quenched`). A bound's device, not a process step
+    /// (`sim::pipeline::bound`).
+    fn quench(&mut self);
     /// Per deposit, the results so far: the preheat once it was read and the pool once the
     /// deposit is laid, which is what a judge needs while the run goes on. The peak and the time
     /// above the threshold are final in [`HeatRun::finish`].
@@ -469,6 +474,9 @@ impl HeatRun for ModelRun {
     }
     fn cool(&mut self, duration: f64) -> Result<(), ThermalError> {
         either!(self, r => r.cool(duration))
+    }
+    fn quench(&mut self) {
+        either!(self, r => r.quench())
     }
     fn points(&self) -> &[PointResult] {
         either!(self, r => r.points())

@@ -183,7 +183,7 @@ pub fn just_laid(
 }
 
 /// Length of deposited path at each deposit, m.
-fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
+pub fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
     let mut s = vec![0.0; deps.len()];
     for i in 1..deps.len() {
         // Travel with the arc off is not deposited path: a track starts where its bead does.

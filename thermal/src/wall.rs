@@ -610,6 +610,10 @@ impl HeatRun for WallRun {
         self.check(None)
     }
 
+    fn quench(&mut self) {
+        self.model.network.quench();
+    }
+
     fn points(&self) -> &[PointResult] {
         &self.points
     }

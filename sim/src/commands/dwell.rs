@@ -103,6 +103,21 @@ pub fn plan_and_dwell(
             }
         }
     };
+    let revolution = {
+        let _stage = Stage::start("the yardstick: one dwell before each revolution");
+        ck.stage("revolution_dwell", |_, _| b.revolution_dwells())?
+            .0
+    };
+    let searched = arc_stops::arc_stops(&plan);
+    let searched_build_s = arc_stops::build_time_s(&b, &plan);
+    let (plan, kept) = arc_stops::never_worse(&b, plan, &revolution);
+    let bound = match &budget {
+        Some((_, r)) => r.bound.clone(),
+        None => {
+            let _stage = Stage::start("the fewest arc stops any plan can make");
+            ck.stage("bound", |_, _| b.arc_stops_lower_bound())?.0
+        }
+    };
     let after = heat(&b, &plan.cooling, s.output.frames, &mut ck, "after")?;
     let (pl, d) = (&b.plan, &b.params.dwell);
     let risks_after = after.risks(&b.criteria);
@@ -144,6 +159,11 @@ pub fn plan_and_dwell(
             .reduce(f64::min),
         "min_dwell_s": d.min_dwell_s,
         "cost_s": total + d.count_weight_s * stops as f64,
+        "arc_stops_lower_bound": bound.stops,
+        "kept": kept.name(),
+        "search_plan": {"arc_stops": searched, "build_time_s": searched_build_s},
+        "revolution_dwell": revolution_json(&b, &revolution),
+        "arc_stops_bound": bound_json(&bound, stops),
         "build_time_s": {"before": before.build_time_s(), "after": after.build_time_s()},
         "slow_down": slow_down_json(&b, &after),
         "closing_strategy": closing_json(&b, &plan, &after),
@@ -165,6 +185,12 @@ pub fn plan_and_dwell(
         summary["arc_stop_budget"] = json!({
             "max_arc_stops": max,
             "met": r.met,
+            "arc_stops_lower_bound": r.bound.stops,
+            "why_not_met": (!r.met).then(|| if *max < r.bound.stops {
+                format!("the budget is under the lower bound: no plan can make fewer than {} arc stops", r.bound.stops)
+            } else {
+                format!("the heaviest weight of an arc stop ({} s) still stops the arc {} times", arc_stops::WEIGHTS_S[arc_stops::WEIGHTS_S.len() - 1], r.plan.cooling.arc_stops())
+            }),
             "weight_s_per_stop": r.weight_s,
             "tried": r.tried.iter().map(tried_json).collect::<Vec<_>>(),
         });
@@ -192,7 +218,13 @@ pub fn plan_and_dwell(
         dir.write("pareto.csv", csv.as_bytes())?;
         summary["pareto"] = plans.iter().map(tried_json).collect::<Vec<_>>().into();
         #[cfg(feature = "recording")]
-        crate::record::pareto_plot(dir, "dwell plans", &plans, budget.as_ref().map(|b| b.0))?;
+        crate::record::pareto_plot(
+            dir,
+            "dwell plans",
+            &plans,
+            budget.as_ref().map(|b| b.0),
+            bound.stops,
+        )?;
     }
     if extras.baselines {
         let _stage = Stage::start("baselines: uniform dwell, wait until cool");
@@ -226,6 +258,19 @@ pub fn plan_and_dwell(
             })?
             .0;
         let wait_safe_until = wait_risk.map_or(n, |(i, _)| i);
+        // Where it fails, all of it: a fresh run with its waits, every point judged.
+        let wait_risks = ck
+            .stage("wait_until_cool_run", |_, _| {
+                Ok::<_, thermal::ThermalError>(b.simulate(&waits, 0)?.risks(&b.criteria))
+            })?
+            .0;
+        let wait_failing: std::collections::BTreeMap<usize, std::collections::BTreeSet<&str>> = (0
+            ..n)
+            .filter_map(|i| wait_risks[i].map(|r| (pl.points[i].layer, r.as_str())))
+            .fold(Default::default(), |mut m, (layer, r)| {
+                m.entry(layer).or_default().insert(r);
+                m
+            });
         summary["baselines"] = json!({
             "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(&b, &before)},
             "uniform": {
@@ -241,6 +286,8 @@ pub fn plan_and_dwell(
                 "safe": wait_risk.is_none(),
                 "first_risk": wait_risk.map(|(i, r)| json!({"i": i, "layer": pl.points[i].layer, "reason": r.as_str()})),
                 "its_dwell_before_that_s": waits[..wait_safe_until].iter().sum::<f64>(),
+                "risky_points": wait_risks.iter().filter(|r| r.is_some()).count(),
+                "risky_layers": wait_failing.iter().map(|(l, c)| json!({"layer": l, "criteria": c})).collect::<Vec<_>>(),
                 "planned_dwell_before_that_s": plan.dwell_s()[..wait_safe_until].iter().sum::<f64>()},
         });
         if let Some(d) = uniform.dwell_s {
@@ -250,7 +297,7 @@ pub fn plan_and_dwell(
     }
     super::plan::write_plan(dir, s, &b)?;
     write_thermal(dir, &b, &after)?;
-    record(dir, s, &part, &b, &after, Some(&before))?;
+    record(dir, s, &part, &b, &after, Some(&before), Some(bound.stops))?;
     let mut csv = String::from("i,layer,t_s,dwell_s,reason,x_mm,y_mm,z_mm\n");
     for (i, &d) in plan.dwell_s().iter().enumerate() {
         if c.strikes(i) {
@@ -289,6 +336,34 @@ pub fn plan_and_dwell(
             "thin-wall"
         }
     ))
+}
+
+/// The revolution-dwell policy's plan: one dwell before each revolution, the closing zone as the
+/// search closes it; whether it is safe, and where no dwell before a revolution cures it.
+fn revolution_json(b: &Build, p: &DwellPlan) -> Value {
+    let c = &p.cooling;
+    json!({
+        "safe": p.unresolved.is_empty(),
+        "arc_stops": c.arc_stops(),
+        "total_dwell_s": c.total_dwell_s(),
+        "build_time_s": arc_stops::build_time_s(b, p),
+        "closing_strategy": p.closing.name(),
+        "uncured_revolutions": p.uncured.iter().map(|(layer, r)| json!({"layer": layer, "criterion": r.as_str()})).collect::<Vec<_>>(),
+        "unresolved_points": p.unresolved.len(),
+    })
+}
+
+/// The lower bound on arc stops (`pipeline::bound`), what it rests on and how far the plan is.
+fn bound_json(bound: &crate::pipeline::bound::StopsBound, stops: usize) -> Value {
+    json!({
+        "stops": bound.stops,
+        "plan_over_bound": (bound.stops > 0).then(|| stops as f64 / bound.stops as f64),
+        "rests_on": "stretches laid without a break from the part cooled to ambient (a comparison principle), at the paces listed, drops no longer than 1.5 bead widths and only in the closing zone; docs/PHYSICS.md",
+        "paces": bound.paces,
+        "greedy_stops_before_points": bound.at.iter().take(50).collect::<Vec<_>>(),
+        "incurable_points": bound.incurable.len(),
+        "cost_builds": bound.cost_builds,
+    })
 }
 
 fn support_name(s: thermal::Support) -> &'static str {

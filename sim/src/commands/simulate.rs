@@ -45,7 +45,7 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let sim = heat(&b, &Cooling::default(), s.output.frames, &mut ck, "heat")?;
     super::plan::write_plan(&mut dir, &s, &b)?;
     write_thermal(&mut dir, &b, &sim)?;
-    record(&mut dir, &s, &part, &b, &sim, None)?;
+    record(&mut dir, &s, &part, &b, &sim, None, None)?;
     dir.finish("simulate", s.to_json())?;
     folder.close()?;
     Ok(summary(&b, &sim))
@@ -81,6 +81,7 @@ pub fn record(
     b: &Build,
     sim: &Simulation,
     before: Option<&Simulation>,
+    arc_stops_lower_bound: Option<usize>,
 ) -> Result<()> {
     let sinks = crate::record::sinks(&s.output);
     if sinks.is_empty() {
@@ -96,6 +97,7 @@ pub fn record(
         sim,
         before,
         planar_deposits_mm: Some(planar.all_deposits().collect()),
+        arc_stops_lower_bound,
     });
     crate::record::record(&scene, sinks, dir)
 }

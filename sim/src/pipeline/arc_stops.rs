@@ -38,14 +38,49 @@ pub fn arc_stops(plan: &DwellPlan) -> usize {
     plan.cooling.arc_stops()
 }
 
+/// The build time of `plan`, dwells, paces and drops included, s.
+pub fn build_time_s(b: &Build, plan: &DwellPlan) -> f64 {
+    let build = super::deposition::schedule(&b.params.process, &b.plan, &b.beads, &plan.cooling);
+    build.last().map_or(0.0, |d| d.time)
+}
+
+/// Which plan the planner hands over ([`never_worse`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Kept {
+    Search,
+    RevolutionDwell,
+}
+
+impl Kept {
+    pub fn name(self) -> &'static str {
+        match self {
+            Kept::Search => "search",
+            Kept::RevolutionDwell => "revolution_dwell",
+        }
+    }
+}
+
+/// The search's plan, unless the revolution-dwell policy's plan (`revolution`) leaves no point
+/// at risk and the search's does, or beats it on both build time and arc stops: a plan is never
+/// worse on both counts than one dwell per revolution where that is safe.
+pub fn never_worse(b: &Build, search: DwellPlan, revolution: &DwellPlan) -> (DwellPlan, Kept) {
+    let safe = |p: &DwellPlan| p.unresolved.is_empty();
+    let beaten = arc_stops(revolution) < arc_stops(&search)
+        && build_time_s(b, revolution) < build_time_s(b, &search);
+    if safe(revolution) && (!safe(&search) || beaten) {
+        (revolution.clone(), Kept::RevolutionDwell)
+    } else {
+        (search, Kept::Search)
+    }
+}
+
 fn tried(b: &Build, weight_s: f64, plan: &DwellPlan) -> Tried {
     let c = &plan.cooling;
-    let build = super::deposition::schedule(&b.params.process, &b.plan, &b.beads, c);
     Tried {
         weight_s,
         arc_stops: arc_stops(plan),
         total_dwell_s: c.total_dwell_s(),
-        build_time_s: build.last().map_or(0.0, |d| d.time),
+        build_time_s: build_time_s(b, plan),
         slowed_points: c.slowed(),
         drops: c.drops(),
         closing: plan.closing.name().into(),
@@ -59,37 +94,48 @@ pub struct Budgeted {
     pub weight_s: f64,
     /// The plan stops the arc at most the budget's times.
     pub met: bool,
-    /// Every plan made on the way, lightest weight first.
+    /// Every plan made on the way, in the order made.
     pub tried: Vec<Tried>,
+    /// The fewest stops any plan can make ([`super::bound`]): a budget under it is answered
+    /// without a search.
+    pub bound: super::bound::StopsBound,
 }
 
-/// The lightest weight of [`WEIGHTS_S`] (from the scenario's own up) whose plan stops the arc
-/// at most `max_stops` times: the least dwell within the budget that weighing can find.
+/// A plan within `max_stops` arc stops, in at most three dwell plans: none where the budget is
+/// under the lower bound on arc stops (the plan at the scenario's own weight is returned, the
+/// budget reported as unmet, citing the bound); else the scenario's weight, then the heaviest of
+/// [`WEIGHTS_S`] (the fewest stops weighing finds), then, if the heaviest meets the budget and the
+/// lightest does not, one weight between them (their geometric mean), the lightest that meets it
+/// kept. Each plan is a whole search, so the run costs at most three plain dwell plans and a
+/// bound (about one build).
 pub fn within_budget(b: &Build, max_stops: usize) -> Result<Budgeted, ThermalError> {
+    let bound = b.arc_stops_lower_bound()?;
     let own = b.params.dwell.count_weight_s;
-    let weights = std::iter::once(own).chain(WEIGHTS_S.into_iter().filter(|&w| w > own));
-    let mut best: Option<(f64, DwellPlan)> = None;
-    let mut made = Vec::new();
-    for w in weights {
-        let plan = b.plan_dwells_weighted(w)?;
-        made.push(tried(b, w, &plan));
-        let fewer = best
-            .as_ref()
-            .is_none_or(|(_, p)| arc_stops(&plan) < arc_stops(p));
-        let met = arc_stops(&plan) <= max_stops;
-        if fewer || met {
-            best = Some((w, plan));
-        }
-        if met {
-            break;
+    let heaviest = WEIGHTS_S[WEIGHTS_S.len() - 1].max(own);
+    let mut made: Vec<(f64, DwellPlan)> = vec![(own, b.plan_dwells_weighted(own)?)];
+    let meets = |p: &DwellPlan| arc_stops(p) <= max_stops;
+    if max_stops >= bound.stops && !meets(&made[0].1) && heaviest > own {
+        made.push((heaviest, b.plan_dwells_weighted(heaviest)?));
+        if meets(&made[1].1) {
+            let middle = (own.max(WEIGHTS_S[1]) * heaviest).sqrt();
+            made.push((middle, b.plan_dwells_weighted(middle)?));
         }
     }
-    let (weight_s, plan) = best.expect("one weight at least");
+    let tried = made.iter().map(|(w, p)| tried(b, *w, p)).collect();
+    // The lightest weight that meets the budget, else the fewest stops.
+    let (weight_s, plan) = made
+        .iter()
+        .filter(|(_, p)| meets(p))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .or_else(|| made.iter().min_by_key(|(_, p)| arc_stops(p)))
+        .cloned()
+        .expect("one plan at least");
     Ok(Budgeted {
-        met: arc_stops(&plan) <= max_stops,
+        met: meets(&plan),
         plan,
         weight_s,
-        tried: made,
+        tried,
+        bound,
     })
 }
 

@@ -29,7 +29,7 @@ use super::checkpoint::Checkpoints;
 use super::deposition::Cooling;
 use super::pace::Pacing;
 use super::params::DwellSettings;
-use super::risk::{Criteria, Risk, judge, judge_for_dwell};
+use super::risk::{Criteria, Risk, judge, judge_for_dwell, preheat_to_cure};
 use bead_model::bond::bond_number;
 use planner::plan::Plan;
 use serde::de::DeserializeOwned;
@@ -46,6 +46,19 @@ pub struct Search<'a> {
     pub ambient_k: f64,
     /// How each point burns at another pace, or as a drop.
     pub pacing: &'a Pacing<'a>,
+    /// The remedies a revolution may get.
+    pub policy: Policy,
+}
+
+/// The remedies the planner may give a revolution outside the closing zone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Policy {
+    /// The cheapest of slowing down, one dwell before it and dwells inside it.
+    Search,
+    /// One dwell before it, the shortest that keeps the whole revolution safe (one arc stop a
+    /// revolution): the yardstick a search's plan must not lose to on both build time and arc
+    /// stops.
+    RevolutionDwell,
 }
 
 impl Search<'_> {
@@ -53,9 +66,31 @@ impl Search<'_> {
         judge_for_dwell(self.criteria, p, support, margin_k)
     }
 
-    /// The temperature the search aims below, K.
+    /// The temperature the search aims below, K: the lowest temperature limit in force, less the
+    /// margin (none in force: no temperature to aim at).
     fn target_k(&self) -> f64 {
-        self.dwell.interpass_max_k - self.dwell.margin_k
+        let c = self.criteria;
+        c.interpass_max_k
+            .into_iter()
+            .chain(c.strength_loss_k)
+            .fold(f64::INFINITY, f64::min)
+            - self.dwell.margin_k
+    }
+
+    /// The preheat a dwell must bring the metal under so that none of `points` breaks the
+    /// criterion it breaks now in `run`, each criterion by its own measure
+    /// ([`super::risk::preheat_to_cure`]: a temperature limit, or the preheat at which a pool
+    /// too long or too heavy shrinks to its limit), K. The lowest of them.
+    fn aim_k(&self, run: &impl HeatRun, points: impl IntoIterator<Item = usize>) -> f64 {
+        points
+            .into_iter()
+            .filter_map(|k| {
+                let p = &run.points()[k];
+                let risk = self.judge(p, run.support(k), self.dwell.margin_k)?;
+                preheat_to_cure(self.criteria, p, risk, self.dwell.margin_k)
+            })
+            .fold(f64::INFINITY, f64::min)
+            .min(self.target_k())
     }
 
     /// Lay deposit i after `dwell` at `pace`.
@@ -109,6 +144,8 @@ struct Revolution {
     end: usize,
     /// Its dwell goes before this deposit; it is simulated from here to the next one's.
     dwell_at: usize,
+    /// The plan's layer number.
+    layer: usize,
 }
 
 fn revolutions(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<Revolution> {
@@ -120,6 +157,7 @@ fn revolutions(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<Revolution> {
                 first: i,
                 end: i + 1,
                 dwell_at: read[i].unwrap_or(0),
+                layer: q.layer,
             });
         } else {
             revs.last_mut().expect("revolution").end = i + 1;
@@ -167,6 +205,10 @@ pub struct DwellPlan {
     /// Deposits simulated by the search, in whole builds.
     pub cost_builds: f64,
     pub closing: Closing,
+    /// Revolutions (by layer) outside the closing zone that no dwell before them (up to
+    /// `max_dwell_s`) keeps safe under the revolution-dwell policy, and the criterion left broken.
+    #[serde(default)]
+    pub uncured: Vec<(usize, Risk)>,
 }
 
 impl DwellPlan {
@@ -230,7 +272,7 @@ fn cooled<R: HeatRun>(base: &R, cache: &mut Vec<(f64, R)>, d: f64) -> Result<R, 
 }
 
 /// Per deposit, the points whose preheat is read during its arc, and itself (its pool).
-fn judged_at(deps: &[Deposit], lead: f64) -> Vec<Vec<usize>> {
+pub(super) fn judged_at(deps: &[Deposit], lead: f64) -> Vec<Vec<usize>> {
     let mut at: Vec<Vec<usize>> = (0..deps.len()).map(|i| vec![i]).collect();
     for (k, j) in read_points(deps, lead).into_iter().enumerate() {
         if let Some(j) = j
@@ -292,6 +334,7 @@ fn point_dwells<R: HeatRun>(
         }
         Ok::<R, ThermalError>(y)
     };
+    let end = range.end;
     for i in range {
         if i - cp_at >= CHECKPOINT_EVERY {
             cp = x.clone();
@@ -318,7 +361,8 @@ fn point_dwells<R: HeatRun>(
             continue;
         };
         let mut cache = Vec::new();
-        let pass = shortest_dwell(s, 5.0, hot0, |d| {
+        let aim = s.aim_k(&trial, judged[i].iter().copied());
+        let pass = shortest_dwell(s, 5.0, hot0, aim, |d| {
             let mut t = cooled(&x, &mut cache, d)?;
             s.lay(&mut t, i, 0.0, pace)?;
             *simulated += 1.0;
@@ -327,6 +371,18 @@ fn point_dwells<R: HeatRun>(
         })?;
         match pass {
             Some((d, t)) => {
+                let (d, t) = match s.dwell.count_weight_s > 0.0 {
+                    true => longer_dwell(
+                        s,
+                        judged,
+                        (&x, &mut cache),
+                        (i, end),
+                        pace,
+                        (d, t),
+                        simulated,
+                    )?,
+                    false => (d, t),
+                };
                 dwells.push((i, d, why));
                 x = t;
             }
@@ -345,6 +401,59 @@ fn point_dwells<R: HeatRun>(
         }
     }
     Ok((x, dwells, unresolved))
+}
+
+/// Where an arc stop is weighed (`count_weight_s` > 0), a dwell before deposit i longer than
+/// the shortest safe one (`shortest`: the dwell and the run after laying i) may pay: it
+/// postpones the next stop. The shortest is doubled, up to three times, each laid on without a
+/// break until the next deposit that would need a dwell (or the stretch's end, `i_end.1`), and the
+/// dwell of least cost per deposit it carries the build, (dwell + weight) / deposits, is kept;
+/// the doubling stops at the first that does not pay (cooling slows as the metal nears ambient).
+fn longer_dwell<R: HeatRun>(
+    s: &Search,
+    judged: &[Vec<usize>],
+    (x, cache): (&R, &mut Vec<(f64, R)>),
+    (i, end): (usize, usize),
+    pace: f64,
+    shortest: (f64, R),
+    simulated: &mut f64,
+) -> Result<(f64, R), ThermalError> {
+    let w = s.dwell.count_weight_s;
+    // The first deposit after i laid on from `t` that would need a dwell, else `end`.
+    let reach = |t: &R, simulated: &mut f64| -> Result<usize, ThermalError> {
+        let mut y = t.clone();
+        for (j, at_j) in judged.iter().enumerate().take(end).skip(i + 1) {
+            s.lay(&mut y, j, 0.0, pace)?;
+            *simulated += 1.0;
+            let risky = at_j.iter().any(|&k| {
+                s.judge(&y.points()[k], y.support(k), s.dwell.margin_k)
+                    .is_some()
+            });
+            if risky {
+                return Ok(j);
+            }
+        }
+        Ok(end)
+    };
+    let rate = |d: f64, r: usize| (d + w) / (r - i) as f64;
+    let r0 = reach(&shortest.1, simulated)?;
+    let first_rate = rate(shortest.0, r0);
+    let (mut best, mut best_rate, mut best_reach) = (shortest, first_rate, r0);
+    for _ in 0..3 {
+        let d = (2.0 * best.0).min(s.dwell.max_dwell_s);
+        if best_reach >= end || d <= best.0 {
+            break;
+        }
+        let mut t = cooled(x, cache, d)?;
+        s.lay(&mut t, i, 0.0, pace)?;
+        *simulated += 1.0;
+        let r = reach(&t, simulated)?;
+        if rate(d, r) >= best_rate {
+            break;
+        }
+        (best, best_rate, best_reach) = ((d, t), rate(d, r), r);
+    }
+    Ok(best)
 }
 
 /// One way to make a revolution safe, and what it costs.
@@ -403,6 +512,7 @@ pub fn plan_dwells_kept<R: HeatRun + Serialize + DeserializeOwned>(
             unresolved: vec![],
             cost_builds: 0.0,
             closing: Closing::NotNeeded,
+            uncured: vec![],
         },
         run,
         cursor: 0,
@@ -548,6 +658,9 @@ impl<R: HeatRun> Planner<'_, R> {
     /// Plan revolution r: laid as planned, or at the pace of the revolution before it, if either
     /// keeps it safe; else the cheapest remedy that does.
     fn revolution(&mut self, r: usize) -> Result<(), ThermalError> {
+        if self.s.policy == Policy::RevolutionDwell {
+            return self.revolution_dwell(r);
+        }
         let (s, rev) = (self.s, self.revs[r]);
         let seg_end = self.segment_end(r);
         self.catch_up(rev.dwell_at)?;
@@ -640,6 +753,51 @@ impl<R: HeatRun> Planner<'_, R> {
             }
         }
         self.keep(stretch, best.pace, best.run, Some(why), best.before)
+    }
+
+    /// Plan revolution r with one dwell before it at most: none if it is safe as planned, else
+    /// the shortest that keeps every point of it safe, else the longest, its revolution and the
+    /// criterion still broken recorded (`uncured`).
+    fn revolution_dwell(&mut self, r: usize) -> Result<(), ThermalError> {
+        let (s, rev) = (self.s, self.revs[r]);
+        let seg_end = self.segment_end(r);
+        self.catch_up(rev.dwell_at)?;
+        let stretch = rev.dwell_at..seg_end;
+        let segment = Segment {
+            s,
+            judged: self.judged,
+            rev,
+            seg_end,
+            pace: 1.0,
+        };
+        let start = self.run.clone();
+        let (x, risk, _) = segment.try_dwell(&start, 0.0, &mut self.simulated)?;
+        let Some((_, why)) = risk else {
+            return self.keep(stretch, 1.0, x, None, start);
+        };
+        let guess = self.last_dwell;
+        let (d, x) = match segment.smallest_dwell(&start, guess, &mut self.simulated)? {
+            Some(pass) => pass,
+            None => {
+                let max = s.dwell.max_dwell_s;
+                (max, segment.try_dwell(&start, max, &mut self.simulated)?.0)
+            }
+        };
+        self.plan.cooling.dwell_s[rev.dwell_at] = d;
+        self.plan.reason[rev.dwell_at] = Some(why);
+        self.last_dwell = d;
+        self.keep(stretch, 1.0, x, Some(why), start)?;
+        let (left, _) = check(s, &self.run, rev.first..rev.end, 0.0);
+        if let Some((_, risk)) = left {
+            self.plan.uncured.push((rev.layer, risk));
+            self.plan
+                .unresolved
+                .extend((rev.first..rev.end).filter(|&k| {
+                    s.judge(&self.run.points()[k], self.run.support(k), 0.0)
+                        .is_some()
+                }));
+        }
+        Ok(())
     }
 
     /// Revolution r laid at `segment`'s pace, and the stretch before it too (from a copy of the
@@ -925,17 +1083,25 @@ impl Segment<'_> {
         guess: f64,
         simulated: &mut usize,
     ) -> Result<Option<(f64, R)>, ThermalError> {
-        let (_, _, hot0) = self.try_dwell(start, 0.0, simulated)?;
-        shortest_dwell(self.s, if guess > 0.0 { guess } else { 10.0 }, hot0, |d| {
-            let (x, risk, hot) = self.try_dwell(start, d, simulated)?;
-            Ok((x, risk.is_none(), hot))
-        })
+        let (x0, _, hot0) = self.try_dwell(start, 0.0, simulated)?;
+        let aim = self.s.aim_k(&x0, self.rev.first..self.rev.end);
+        shortest_dwell(
+            self.s,
+            if guess > 0.0 { guess } else { 10.0 },
+            hot0,
+            aim,
+            |d| {
+                let (x, risk, hot) = self.try_dwell(start, d, simulated)?;
+                Ok((x, risk.is_none(), hot))
+            },
+        )
     }
 }
 
 /// The shortest dwell that `attempt` (the run after a dwell, whether it is safe, its hottest
 /// preheat) finds safe, starting from `guess`: cooling of the excess above ambient is close to
-/// exponential, so two tries give its time constant and the dwell that reaches the target; then
+/// exponential, so two tries give its time constant and the dwell that brings the preheat to
+/// `target` (the preheat that cures the criterion broken, [`Search::aim_k`]); then
 /// the bracket closes to 10 %. None shorter than `min_dwell_s` is tried (a dwell is an arc stop
 /// and a restart: one that cools for a fraction of a second buys nothing). `None` if even the
 /// longest dwell fails.
@@ -943,9 +1109,10 @@ fn shortest_dwell<R>(
     s: &Search,
     guess: f64,
     hot0: f64,
+    target: f64,
     mut attempt: impl FnMut(f64) -> Result<(R, bool, f64), ThermalError>,
 ) -> Result<Option<(f64, R)>, ThermalError> {
-    let (ambient, target) = (s.ambient_k, s.target_k());
+    let ambient = s.ambient_k;
     let mut tries = vec![(0.0, hot0)];
     let mut d = guess;
     let (mut fail, mut best): (f64, Option<(f64, R)>) = (0.0, None);

@@ -36,6 +36,7 @@
 
 pub mod arc_stops;
 pub mod beads;
+pub mod bound;
 pub mod calibrate;
 pub mod checkpoint;
 pub mod cost;
@@ -279,6 +280,7 @@ impl Build {
             dwell: &self.params.dwell,
             ambient_k: self.params.thermal.ambient_k,
             pacing,
+            policy: dwell::Policy::Search,
         }
     }
 
@@ -292,11 +294,32 @@ impl Build {
         self.plan_dwells_kept(weight_s, &mut Checkpoints::off(), "")
     }
 
+    /// The revolution-dwell policy ([`dwell::Policy::RevolutionDwell`]): one dwell before each
+    /// revolution, the shortest that keeps it safe, and the closing zone closed as the search
+    /// closes it; `uncured` names the revolutions no such dwell keeps safe.
+    pub fn revolution_dwells(&self) -> Result<DwellPlan, ThermalError> {
+        let (weight, policy) = (
+            self.params.dwell.count_weight_s,
+            dwell::Policy::RevolutionDwell,
+        );
+        self.plan_dwells_as(weight, policy, &mut Checkpoints::off(), "")
+    }
+
     /// [`Build::plan_dwells_weighted`], the search kept under `stage` between revolutions
     /// ([`dwell::plan_dwells_kept`]).
     pub fn plan_dwells_kept(
         &self,
         weight_s: f64,
+        ck: &mut Checkpoints<'_>,
+        stage: &str,
+    ) -> Result<DwellPlan, ThermalError> {
+        self.plan_dwells_as(weight_s, dwell::Policy::Search, ck, stage)
+    }
+
+    fn plan_dwells_as(
+        &self,
+        weight_s: f64,
+        policy: dwell::Policy,
         ck: &mut Checkpoints<'_>,
         stage: &str,
     ) -> Result<DwellPlan, ThermalError> {
@@ -309,10 +332,25 @@ impl Build {
         let pacing = self.pacing();
         let search = Search {
             dwell: &dwell,
+            policy,
             ..self.search(&pacing)
         };
         let (pl, deps, lead) = (&self.plan, &self.deposits, model.lead());
         dwell::plan_dwells_kept(&search, pl, deps, lead, run, ck, stage)
+    }
+
+    /// The fewest arc stops any cooling plan of the build can make ([`bound`]), on the
+    /// scenario's heat model.
+    pub fn arc_stops_lower_bound(&self) -> Result<bound::StopsBound, ThermalError> {
+        let model = self.heat_model(&self.deposits, Vec::new());
+        let run = model.start(&self.deposits)?;
+        let radius = self.params.dwell.closing_zone_mm;
+        let zone = risk::closing_zone(&self.plan, radius, |k| run.support(k))
+            .iter()
+            .position(|&z| z);
+        let pacing = self.pacing();
+        let search = self.search(&pacing);
+        bound::arc_stops_lower_bound(&search, &self.deposits, model.lead(), zone, run)
     }
 
     /// Per path point, whether it lies in the closing zone of `sim` (within `[dwell]

@@ -484,11 +484,16 @@ pub fn pareto_plot(
     title: &str,
     plans: &[crate::pipeline::arc_stops::Tried],
     budget: Option<usize>,
+    lower_bound: usize,
 ) -> Result<()> {
     use crate::pipeline::arc_stops::on_front;
     draw(dir, "pareto.png", |area| {
         let stops = plans.iter().map(|t| t.arc_stops as f64);
-        let (x_lo, x_hi) = span(stops.chain([0.0]).chain(budget.map(|b| b as f64)));
+        let (x_lo, x_hi) = span(
+            stops
+                .chain([0.0, lower_bound as f64])
+                .chain(budget.map(|b| b as f64)),
+        );
         let (y_lo, y_hi) = span(plans.iter().map(|t| t.build_time_s / 60.0));
         let mut chart = ChartBuilder::on(area)
             .caption(format!("{title}: build time against arc stops"), (FONT, 24))
@@ -531,6 +536,16 @@ pub fn pareto_plot(
                     (FONT, 12),
                 )
         }))?;
+        let grey = RGBColor(90, 90, 90);
+        chart
+            .draw_series(LineSeries::new(
+                [(lower_bound as f64, y_lo), (lower_bound as f64, y_hi)],
+                grey.stroke_width(2),
+            ))?
+            .label(format!(
+                "lower bound: no plan makes fewer than {lower_bound} arc stops"
+            ))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], grey));
         if let Some(b) = budget {
             let red = RGBColor(210, 60, 60);
             chart

@@ -147,6 +147,33 @@ fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
              (dwell.json `closing_strategy`; see docs/PHYSICS.md)."
         ));
     }
+    // The process window (CTPP Eq.6): a deposit outside it is one the wire feed cannot lay as
+    // planned, whatever the heat does.
+    let ([lo, hi], tol) = (scene.window_mm, scene.window_tolerance_mm);
+    let outside: Vec<&PointRecord> = scene
+        .points
+        .iter()
+        .filter(|p| p.deposit_mm < lo - tol || p.deposit_mm > hi + tol)
+        .collect();
+    if !outside.is_empty() {
+        let layers: std::collections::BTreeSet<usize> = outside.iter().map(|p| p.layer).collect();
+        let (d_lo, d_hi) = outside.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.deposit_mm), b.max(p.deposit_mm))
+        });
+        evidence.push(format!(
+            "The plan is not feasible (plan.json `feasible: false`): {} path points in {} \
+             revolutions (from layer {}) ask for deposits of {d_lo:.2}–{d_hi:.2} mm, outside the \
+             process window {lo:.2}–{hi:.2} mm (CTPP Eq.6). There the wire feed and travel speed \
+             cannot lay the deposit the spiral asks for: expect the part to depart from its \
+             mid-surface there (plan.json `violations`; path.csv `built_height_mm`, the as-built \
+             stack). Near a closing point the revolutions cross converging generators and this is \
+             expected; elsewhere, widen the window (`deposit_min_mm`, `deposit_max_mm`) or change \
+             `n_points`.",
+            outside.len(),
+            layers.len(),
+            layers.first().copied().unwrap_or(0),
+        ));
+    }
     let drops: Vec<&PointRecord> = scene.points.iter().filter(|p| p.strikes_drop).collect();
     if let Some(first) = drops.first() {
         evidence.push(format!(
@@ -213,7 +240,14 @@ fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) 
         ("path points", scene.points.len().to_string()),
         (
             "arc stops (dwells and drops; one arc start and one stop for the spiral besides)",
-            stops.to_string(),
+            match scene.arc_stops_lower_bound {
+                Some(b) => format!(
+                    "{stops}: {:.1} times the fewest any plan can make ({b}, the lower bound of \
+                     docs/PHYSICS.md)",
+                    stops as f64 / b.max(1) as f64
+                ),
+                None => stops.to_string(),
+            },
         ),
         ("dwell in all", format!("{dwell_total:.0} s")),
         ("build time", format!("{:.0} s", scene.build_s)),

@@ -128,9 +128,15 @@ pub struct Scene {
     pub ambient_c: f64,
     /// Deposit window h_min, h_max, mm.
     pub window_mm: [f64; 2],
+    /// Deposits this close to the window count as inside it, mm (`[planner]
+    /// deposit_tolerance_mm`).
+    pub window_tolerance_mm: f64,
     /// Planar 2.5D slicing's deposits, for the comparison with CTPP.
     pub planar_deposits_mm: Option<Vec<f64>>,
     pub build_s: f64,
+    /// The fewest arc stops any plan of the build can make (`pipeline::bound`), where dwells
+    /// were planned.
+    pub arc_stops_lower_bound: Option<usize>,
 }
 
 /// What a run hands over to be recorded.
@@ -143,6 +149,8 @@ pub struct Run<'a> {
     /// The run without dwells, where dwells were planned.
     pub before: Option<&'a Simulation>,
     pub planar_deposits_mm: Option<Vec<f64>>,
+    /// The fewest arc stops any plan of the build can make, where dwells were planned.
+    pub arc_stops_lower_bound: Option<usize>,
 }
 
 impl Scene {
@@ -218,8 +226,10 @@ impl Scene {
                 b.params.process.deposit_min_m * 1e3,
                 b.params.process.deposit_max_m * 1e3,
             ],
+            window_tolerance_mm: r.s.plan_params().tolerance_mm,
             planar_deposits_mm: r.planar_deposits_mm,
             build_s: sim.deposits.last().map_or(0.0, |d| d.time),
+            arc_stops_lower_bound: r.arc_stops_lower_bound,
             points,
         }
     }

@@ -580,6 +580,19 @@ impl VoxelModel {
             })
     }
 
+    /// Every active voxel at ambient at once, the heat taken out booked as quenched.
+    fn quench(&mut self) {
+        for v in 0..self.h.len() {
+            let (_, tables, h_ambient, mass) = self.material_of(v as u32);
+            let (t, phi) = tables.at(h_ambient as f32);
+            self.ledger.quenched += mass * (self.h[v] as f64 - h_ambient);
+            self.h[v] = h_ambient as f32;
+            self.t[v] = t;
+            self.phi[v] = phi;
+            self.phi_next[v] = phi;
+        }
+    }
+
     fn mean_t(&self, v: &[u32]) -> f64 {
         if v.is_empty() {
             return self.settings.surroundings.ambient_k;
@@ -1165,6 +1178,10 @@ impl HeatRun for VoxelRun {
             self.advance(dt, false);
         }
         self.check(None)
+    }
+
+    fn quench(&mut self) {
+        self.model.quench();
     }
 
     fn points(&self) -> &[PointResult] {
