@@ -283,3 +283,40 @@ fn slowing_down_keeps_the_arc_on() {
     assert!(slower > 0.0);
     assert!((after - before - total - slower).abs() < 1e-6 * after);
 }
+
+/// The plate fits the part where the scenario gives none (a wide low cylinder needs more than
+/// the 250 mm stock plate: its footprint plus 25 mm a side), plan.json says so, and a plate the
+/// user gives too small stops the run naming `plate_mm`, exit 2, with nothing written.
+#[test]
+fn the_plate_fits_the_part_unless_the_user_gives_one() {
+    let part = "[part]\nshape = \"cylinder\"\nradius_mm = 140.0\nheight_mm = 16.0\nedge_mm = 4.0\n[planner]\nn_points = 60\n";
+    let out = crate::run_scenario("plate_fitted", "simulate", part);
+    let p: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("plan.json")).unwrap()).unwrap();
+    let plate = &p["plate"];
+    assert_eq!(plate["source"], "fitted");
+    let footprint = plate["footprint_mm"][0].as_f64().unwrap();
+    // The centre lines span 280 mm; the bead's width (5 mm) widens the footprint.
+    assert!((footprint - 285.0).abs() < 1.0, "{footprint}");
+    let size = plate["size_mm"][0].as_f64().unwrap();
+    assert!((size - (footprint + 50.0)).abs() < 1e-6, "{size}");
+    let dir = scratch("plate_too_small");
+    std::fs::write(
+        dir.join("s.toml"),
+        format!("{part}[thermal]\nplate_mm = [250.0, 250.0, 10.0]\n"),
+    )
+    .unwrap();
+    let o = waamtwin(&[
+        "simulate",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("plate_mm") && err.contains("outside the plate"),
+        "{err}"
+    );
+    assert!(!dir.join("out").join("thermal.json").exists());
+}

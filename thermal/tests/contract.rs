@@ -595,3 +595,54 @@ fn tracks_with_travel_between_them_on_both_models() {
         "thin wall {wall} K, voxel {voxel} K above ambient"
     );
 }
+
+/// `quench` leaves every laid cell and the plate at ambient with the clock unmoved, books the
+/// heat it took out (the energy balance still closes), and the run carries on from there: a
+/// deposit laid on the quenched part reads a cooler substrate than on the part as it was (the
+/// comparison the arc-stop bound rests on).
+#[test]
+fn a_quenched_run_is_at_ambient_and_carries_on_cooler() {
+    let deps = schedule();
+    for model in models(Material::g3si()) {
+        let mut run = model.start(&deps).unwrap();
+        for i in 0..50 {
+            run.deposit(i, 0.0).unwrap();
+        }
+        let (now, hot) = (run.now(), run.clone());
+        run.quench();
+        assert_eq!(run.now(), now, "{}", model.name());
+        for i in 0..50 {
+            let t = run.temperature_of(i);
+            assert!(
+                (t - 293.15).abs() < 0.01,
+                "{}: deposit {i} at {t} K",
+                model.name()
+            );
+        }
+        let (mut cold, mut warm) = (run.clone(), hot);
+        for i in 50..60 {
+            cold.deposit(i, 0.0).unwrap();
+            warm.deposit(i, 0.0).unwrap();
+        }
+        // The points read after the quench (the torch 10 mm upstream of them then).
+        let read = thermal::schedule::read_points(&deps, 10e-3);
+        let after: Vec<usize> = (50..60).filter(|&i| read[i] >= Some(50)).collect();
+        assert!(after.len() >= 5, "{}", model.name());
+        for i in after {
+            let (c, w) = (cold.points()[i].preheat, warm.points()[i].preheat);
+            assert!(
+                c < w,
+                "{}: point {i} reads {c} K quenched, {w} K not",
+                model.name()
+            );
+        }
+        let r = cold.finish();
+        assert!(r.ledger.quenched > 0.0, "{}", model.name());
+        assert!(
+            r.balance_error.abs() < 1e-6,
+            "{}: balance {}",
+            model.name(),
+            r.balance_error
+        );
+    }
+}
