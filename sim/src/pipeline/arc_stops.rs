@@ -107,7 +107,7 @@ pub struct Budgeted {
 /// [`WEIGHTS_S`] (the fewest stops weighing finds), then, if the heaviest meets the budget and the
 /// lightest does not, one weight between them (their geometric mean), the lightest that meets it
 /// kept. Each plan is a whole search, so the run costs at most three plain dwell plans and a
-/// bound (about one build).
+/// bound (about two builds).
 pub fn within_budget(b: &Build, max_stops: usize) -> Result<Budgeted, ThermalError> {
     let bound = b.arc_stops_lower_bound()?;
     let own = b.params.dwell.count_weight_s;

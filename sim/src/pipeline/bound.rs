@@ -18,8 +18,8 @@
 //! `p_1 < p_2 < …` has `p_{i+1} ≤ F(p_i)`. `F` grows with `a` (a stretch started earlier is
 //! hotter where a later one starts cold), so the greedy plan that stops exactly at each deadline,
 //! `g_{i+1} = F(g_i)`, has `p_i ≤ g_i` for every i, and no plan ends with fewer stops than it: the
-//! count of the greedy's stops is a lower bound. Every deposit is laid about once (a stretch is
-//! laid again only up to its deadline), so the bound costs about one build.
+//! count of the greedy's stops is a lower bound. Every deposit is laid about twice (a stretch is
+//! found, then laid again up to its deadline), so the bound costs about two builds.
 //!
 //! **What it rests on**, besides the comparison principle: the paces tried (every stretch at
 //! the planned pace and, where the power falls with the wire feed, the slowest the window

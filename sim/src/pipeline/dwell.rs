@@ -406,7 +406,7 @@ fn point_dwells<R: HeatRun>(
 /// Where an arc stop is weighed (`count_weight_s` > 0), a dwell before deposit i longer than
 /// the shortest safe one (`shortest`: the dwell and the run after laying i) may pay: it
 /// postpones the next stop. The shortest is doubled, up to three times, each laid on without a
-/// break until the next deposit that would need a dwell (or the stretch's end, `i_end.1`), and the
+/// break until the next deposit that would need a dwell (or the stretch's end, `end`), and the
 /// dwell of least cost per deposit it carries the build, (dwell + weight) / deposits, is kept;
 /// the doubling stops at the first that does not pay (cooling slows as the metal nears ambient).
 fn longer_dwell<R: HeatRun>(
