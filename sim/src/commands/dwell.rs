@@ -189,7 +189,7 @@ pub fn plan_and_dwell(
             "why_not_met": (!r.met).then(|| if *max < r.bound.stops {
                 format!("the budget is under the lower bound: no plan can make fewer than {} arc stops", r.bound.stops)
             } else {
-                format!("the heaviest weight of an arc stop ({} s) still stops the arc {} times", arc_stops::WEIGHTS_S[arc_stops::WEIGHTS_S.len() - 1], r.plan.cooling.arc_stops())
+                format!("the heaviest weight of an arc stop tried ({} s) still stops the arc {} times", r.tried.iter().map(|t| t.weight_s).fold(0.0, f64::max), r.plan.cooling.arc_stops())
             }),
             "weight_s_per_stop": r.weight_s,
             "tried": r.tried.iter().map(tried_json).collect::<Vec<_>>(),

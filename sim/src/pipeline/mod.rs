@@ -138,7 +138,8 @@ pub fn plate_fitted(least: [f64; 3], deposits: &[Deposit]) -> [f64; 3] {
     ]
 }
 
-/// The extent in x and y of the deposits laid on the plate (their centre lines), m.
+/// The extent in x and y of the beads laid on the plate (their centre lines widened by half a
+/// bead each side), m.
 pub fn footprint_m(deposits: &[Deposit]) -> [f64; 2] {
     let on_plate = deposits.iter().filter(|d| d.support.is_none());
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
