@@ -58,6 +58,21 @@ pub enum Command {
         #[command(flatten)]
         checkpoints: crate::commands::checkpoint::Options,
     },
+    /// Follow a build while it runs: the replay scenario's toolpath is the program, its probe
+    /// file is read as the logger writes it; an ensemble learns from every reading and
+    /// forecasts the probes and the next layer: forecasts.csv, assimilation.csv, alarms.csv,
+    /// follow.json.
+    Follow {
+        scenario: PathBuf,
+        #[arg(short = 'o', long = "out")]
+        out: PathBuf,
+        /// End after this many seconds with nothing new in the followed files (default: wait
+        /// until the data reach the program's end, or Ctrl-C).
+        #[arg(long)]
+        until_idle_s: Option<f64>,
+        #[command(flatten)]
+        checkpoints: crate::commands::checkpoint::Options,
+    },
     /// Fit up to three of a replay's parameters to its probes over a fit window and judge the
     /// fit on a held-out one: calibration.json, probes.csv, probes.png.
     Calibrate {

@@ -54,6 +54,16 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             println!("{}", commands::simulate::run(&scenario, &out, checkpoints)?);
             Ok(())
         }
+        Command::Follow {
+            scenario,
+            out,
+            until_idle_s,
+            checkpoints,
+        } => {
+            let line = commands::follow::run(&scenario, &out, until_idle_s, checkpoints)?;
+            println!("{line}");
+            Ok(())
+        }
         Command::Calibrate {
             scenario,
             out,

@@ -7,6 +7,7 @@ mod determinism;
 mod dwell;
 mod export;
 mod family;
+mod follow;
 mod inspect;
 mod outputs;
 mod replay;

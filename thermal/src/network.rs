@@ -42,11 +42,15 @@ pub struct Ledger {
     /// Heat taken out at once by [`crate::HeatRun::quench`] (a bound's "cooled to ambient").
     #[serde(default)]
     pub quenched: f64,
+    /// Heat a data assimilation put in (negative: took out) by setting temperatures to what
+    /// the sensors said ([`crate::voxel::VoxelModel::set_temperature`]); not a physical flux.
+    #[serde(default)]
+    pub assimilated: f64,
 }
 
 impl Ledger {
     pub fn energy_in(&self) -> f64 {
-        self.source + self.deposited
+        self.source + self.deposited + self.assimilated
     }
     pub fn lost(&self) -> f64 {
         self.convection + self.radiation + self.table + self.quenched

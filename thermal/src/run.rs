@@ -289,6 +289,9 @@ pub trait HeatRun: Clone {
     /// is booked in the ledger's `quenched`). A bound's device, not a process step
     /// (`sim::pipeline::bound`).
     fn quench(&mut self);
+    /// Lose heat from now on with these coefficients (convection W/(m² K), emissivity, contact
+    /// to the table W/(m² K)); the ambient stays. What a twin does when it has learned them.
+    fn set_losses(&mut self, convection_w_m2k: f64, emissivity: f64, table_w_m2k: f64);
     /// Per deposit, the results so far: the preheat once it was read and the pool once the
     /// deposit is laid, which is what a judge needs while the run goes on. The peak and the time
     /// above the threshold are final in [`HeatRun::finish`].
@@ -477,6 +480,9 @@ impl HeatRun for ModelRun {
     }
     fn quench(&mut self) {
         either!(self, r => r.quench())
+    }
+    fn set_losses(&mut self, convection_w_m2k: f64, emissivity: f64, table_w_m2k: f64) {
+        either!(self, r => r.set_losses(convection_w_m2k, emissivity, table_w_m2k))
     }
     fn points(&self) -> &[PointResult] {
         either!(self, r => r.points())

@@ -614,6 +614,12 @@ impl HeatRun for WallRun {
         self.model.network.quench();
     }
 
+    fn set_losses(&mut self, convection_w_m2k: f64, emissivity: f64, table_w_m2k: f64) {
+        let s = &mut self.model.network.surroundings;
+        (s.convection_w_m2k, s.emissivity, s.table_w_m2k) =
+            (convection_w_m2k, emissivity, table_w_m2k);
+    }
+
     fn points(&self) -> &[PointResult] {
         &self.points
     }

@@ -6,6 +6,7 @@ pub mod cost;
 pub mod demo;
 pub mod dwell;
 pub mod export;
+pub mod follow;
 pub mod geodesic;
 pub mod inspect;
 pub mod plan;

@@ -9,119 +9,41 @@ use crate::error::{Error, Result};
 use crate::measured::{gcode, machine_log, probes, table, toolpath};
 use crate::output::RunDir;
 use crate::pipeline::checkpoint::Checkpoints;
-use crate::pipeline::deposition::heat_model_of;
-use crate::pipeline::replay::{self, Agreement, Pass, Sample};
+use crate::pipeline::replay::{
+    self, Compared, Pass, Replay, Sample, in_celsius, overall, sampling_interval,
+};
 use crate::progress::Stage;
-use crate::scenario::ThermalSettings;
 use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
 use serde_json::json;
 use std::fmt::Write;
 use std::path::Path;
-use thermal::ZERO_CELSIUS_K as C;
 use thermal::material::Material;
-use thermal::run::RunResult;
 use thermal::schedule::Deposit;
-use thermal::{HeatRun, ModelRun};
 
-/// One probe's comparison.
-pub struct Compared {
-    pub name: String,
-    pub samples: Vec<Sample>,
-    pub agreement: Option<Agreement>,
-    /// Each pass of the torch as this probe saw it.
-    pub passes: Vec<Pass>,
+/// The replay of scenario `s`, its files read: the toolpath, the materials; the probes kept
+/// every `every_s`.
+pub(crate) fn set_up(s: &ReplayScenario, every_s: f64) -> Result<Replay> {
+    let path = waypoints(s)?;
+    let probes = s.probes.as_ref().map_or(Vec::new(), |p| {
+        p.points.iter().map(|q| q.position_m).collect()
+    });
+    let materials = (
+        material_of(&s.material)?,
+        s.plate_material.as_ref().map(material_of).transpose()?,
+    );
+    Replay::new(
+        &path, &s.laying, &s.thermal, materials, s.source, probes, every_s,
+    )
+    .map_err(|e| Error::from(e).context(s.toolpath.display()))
 }
 
-/// A replay's fixed inputs: what every run of it (a calibration makes many) shares. The
-/// schedule is cut once (finding supports is quadratic in the deposits); only its heat
-/// changes with the efficiency.
-pub(crate) struct Replay<'a> {
-    pub s: &'a ReplayScenario,
-    /// The path laid as the scenario says (`s.laying`).
-    pub deps: Vec<Deposit>,
-    pub material: Material,
-    /// The plate's own material, where it is not the deposit's.
-    pub plate_material: Option<Material>,
-    /// How often the probes are kept, s.
-    pub every_s: f64,
-}
-
-impl Replay<'_> {
-    /// Heat the path at arc efficiency (or absorptivity) `efficiency` with `thermal` from the
-    /// start until `until_s` (cooling after the last deposit if that comes later; deposits
-    /// after it left out): the deposits laid and what the model made of them. The run is kept
-    /// under `progress` as it goes, and taken from there.
-    pub fn run_kept(
-        &self,
-        efficiency: f64,
-        thermal: &ThermalSettings,
-        until_s: f64,
-        ck: &mut Checkpoints<'_>,
-        progress: &str,
-    ) -> Result<(Vec<Deposit>, RunResult)> {
-        let (deps, mut run) = match ck.load::<(Vec<Deposit>, ModelRun)>(progress) {
-            Some(kept) => kept,
-            None => self.start(efficiency, thermal)?,
-        };
-        advance_kept(&mut run, &deps, until_s, ck, progress)?;
-        let laid = run.laid();
-        Ok((deps[..laid].to_vec(), run.finish()))
-    }
-
-    /// The model for the whole path at `efficiency` with `thermal`, at the first arc: what
-    /// [`advance`] drives, and a clone of it a checkpoint to go on from.
-    pub fn start(
-        &self,
-        efficiency: f64,
-        thermal: &ThermalSettings,
-    ) -> Result<(Vec<Deposit>, ModelRun)> {
-        // The heat is η·P·t: linear in the efficiency.
-        let scale = efficiency / self.s.laying.efficiency;
-        let deps: Vec<Deposit> = self
-            .deps
-            .iter()
-            .map(|d| Deposit {
-                heat: d.heat * scale,
-                ..*d
-            })
-            .collect();
-        let mut model = heat_model_of(self.material.clone(), thermal, &deps, vec![], vec![]);
-        let probes = self.s.probes.as_ref().map_or(Vec::new(), |p| {
-            p.points.iter().map(|q| q.position_m).collect()
-        });
-        model.set_probes(probes, self.every_s);
-        model.set_source(self.s.source);
-        model.set_plate_material(self.plate_material.clone());
-        let run = model.start(&deps)?;
-        Ok((deps, run))
-    }
-}
-
-/// [`advance`] with `run` (on `deps`) kept under `progress` when the interval has passed.
-pub(crate) fn advance_kept(
-    run: &mut ModelRun,
-    deps: &[Deposit],
-    until_s: f64,
-    ck: &mut Checkpoints<'_>,
-    progress: &str,
-) -> Result<()> {
-    replay::advance_observed(run, deps, until_s, &mut |r| {
-        ck.save_if_due(progress, || (deps, r));
-    })?;
-    Ok(())
+/// The probes' names, in the scenario's order.
+pub(crate) fn names(p: &Probes) -> Vec<String> {
+    p.points.iter().map(|q| q.name.clone()).collect()
 }
 
 pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<String> {
     let s = ReplayScenario::load(scenario)?;
-    let path = waypoints(&s)?;
-    let deps = replay::deposits(&path, &s.laying);
-    if deps.is_empty() {
-        return Err(Error::input(format!(
-            "{}: no segment lays metal (every `on` is 0); expected at least one",
-            s.toolpath.display()
-        )));
-    }
-    let material = material_of(&s.material)?;
     let (measured, dropped) = match &s.probes {
         Some(p) => {
             let (m, dropped) = measured(p, s.thermal.ambient_k)?;
@@ -129,33 +51,28 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         }
         None => (None, 0),
     };
+    let every_s = measured.as_ref().map_or(1.0, |m| sampling_interval(&m.t_s));
+    let r = set_up(&s, every_s)?;
     let mut dir = RunDir::create(out)?;
-    let end_s = path.last().map_or(0.0, |w| w.t_s);
+    let end_s = r.deps.last().map_or(0.0, |d| d.time);
     let until_s = measured
         .as_ref()
         .and_then(|m| m.t_s.last().copied())
         .map_or(end_s, |t| t.max(end_s));
-    let r = Replay {
-        s: &s,
-        every_s: measured.as_ref().map_or(1.0, |m| sampling_interval(&m.t_s)),
-        deps,
-        material,
-        plate_material: s.plate_material.as_ref().map(material_of).transpose()?,
-    };
     let print = checkpoint::of_run("replay", &s.to_json(), &r.deps);
     let mut folder = checkpoint::Folder::open(out, "replay", print, resume)?;
     let mut ck = Checkpoints::to(&mut folder);
     let ((deps, result), wall_s) = {
         let _stage = Stage::start("heating the replayed toolpath");
         ck.stage("heat", |ck, progress| {
-            r.run_kept(s.laying.efficiency, &s.thermal, until_s, ck, progress)
+            r.run_kept(&r.values, until_s, ck, progress)
         })?
     };
     let build_s = deps.last().map_or(0.0, |d| d.time);
     let window = s.window_s.unwrap_or([0.0, until_s]);
     let starts = replay::pass_starts(&deps);
     let compared: Vec<Compared> = match (&s.probes, &measured) {
-        (Some(p), Some(m)) => compare(p, m, &result.probes, window, &starts),
+        (Some(p), Some(m)) => replay::compare(&names(p), m, &result.probes, window, &starts),
         _ => Vec::new(),
     };
     dir.write("passes.csv", passes_csv(&compared).as_bytes())?;
@@ -289,72 +206,13 @@ pub fn material_of(spec: &MaterialSpec) -> Result<Material> {
     .map_err(|e| Error::input(format!("material {}: {e}", t.name)))
 }
 
-/// Readings this far below ambient are not of the part (an IR camera reads 80 K from a pixel
-/// that metal only partly fills): they count as no reading.
-const BELOW_AMBIENT_K: f64 = 5.0;
-
 /// The measured series in °C, and how many readings lay below ambient (dropped).
 pub(crate) fn measured(p: &Probes, ambient_k: f64) -> Result<(probes::Series, usize)> {
     let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
     let file = p.file.display().to_string();
     let mut s = probes::series(&read(&p.file)?, &file, p.time_column, &columns)?;
-    let floor_c = ambient_k - C - BELOW_AMBIENT_K;
-    let mut dropped = 0;
-    for v in s.values.iter_mut().flatten() {
-        if let Some(x) = v {
-            if p.kelvin {
-                *x -= C;
-            }
-            if *x < floor_c {
-                *v = None;
-                dropped += 1;
-            }
-        }
-    }
+    let dropped = in_celsius(&mut s, p.kelvin, ambient_k);
     Ok((s, dropped))
-}
-
-/// The measured series' shortest step: the model keeps its probes at least that often.
-pub(crate) fn sampling_interval(t_s: &[f64]) -> f64 {
-    t_s.windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(f64::INFINITY, f64::min)
-        .min(1.0)
-}
-
-pub(crate) fn compare(
-    p: &Probes,
-    m: &probes::Series,
-    traces: &[thermal::run::ProbeTrace],
-    window: [f64; 2],
-    starts: &[f64],
-) -> Vec<Compared> {
-    p.points
-        .iter()
-        .zip(&m.values)
-        .zip(traces)
-        .map(|((q, values), trace)| {
-            let samples = replay::pair(&m.t_s, values, trace);
-            let agreement = replay::agreement(&samples, (window[0], window[1]));
-            Compared {
-                name: q.name.clone(),
-                passes: replay::passes(&samples, starts),
-                samples,
-                agreement,
-            }
-        })
-        .collect()
-}
-
-/// RMS over every sample of every probe in the window, and how many.
-pub(crate) fn overall(c: &[Compared]) -> Option<(f64, usize)> {
-    let (sq, n) = c
-        .iter()
-        .filter_map(|c| c.agreement.as_ref())
-        .fold((0.0, 0), |(sq, n), a| {
-            (sq + a.rms_c * a.rms_c * a.samples as f64, n + a.samples)
-        });
-    (n > 0).then(|| ((sq / n as f64).sqrt(), n))
 }
 
 /// RMS and mean of predicted − measured of one quantity of a probe's passes, as JSON.

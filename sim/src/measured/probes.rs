@@ -13,47 +13,82 @@ pub struct Series {
     pub values: Vec<Vec<Option<f64>>>,
 }
 
-/// Read columns `columns` (0-based) against column `time_column`; `file` names it in messages.
-pub fn series(text: &str, file: &str, time_column: usize, columns: &[usize]) -> Result<Series> {
-    let mut s = Series {
-        t_s: Vec::new(),
-        values: vec![Vec::new(); columns.len()],
+/// One line of a probe file, read.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Line {
+    /// Blank, a comment, or a header (a first line whose time is not a number).
+    Nothing,
+    /// Its time and, per probe asked for, its reading.
+    Row(f64, Vec<Option<f64>>),
+}
+
+/// Line `n` (1-based) of a probe file: columns `columns` (0-based) against `time_column`. A
+/// message without the file's name where it does not read (the caller names the file, and in
+/// live mode counts it and goes on).
+pub fn line(
+    text: &str,
+    n: usize,
+    time_column: usize,
+    columns: &[usize],
+) -> std::result::Result<Line, String> {
+    if text.trim().is_empty() || text.trim_start().starts_with('#') {
+        return Ok(Line::Nothing);
+    }
+    // Empty fields are readings missing: split on the separator, not on runs of it.
+    let f: Vec<&str> = match text.contains(',') {
+        true => text.split(',').map(str::trim).collect(),
+        false => text.split_whitespace().collect(),
     };
+    if n == 1 && f[0].parse::<f64>().is_err() {
+        return Ok(Line::Nothing);
+    }
     let widest = columns
         .iter()
         .copied()
         .chain([time_column])
         .max()
         .unwrap_or(0);
-    for (k, line) in text.lines().enumerate() {
-        let n = k + 1;
-        if line.trim().is_empty() || line.trim_start().starts_with('#') {
-            continue;
-        }
-        // Empty fields are readings missing: split on the separator, not on runs of it.
-        let f: Vec<&str> = match line.contains(',') {
-            true => line.split(',').map(str::trim).collect(),
-            false => line.split_whitespace().collect(),
-        };
-        if s.t_s.is_empty() && k == 0 && f[0].parse::<f64>().is_err() {
-            continue;
-        }
-        if f.len() <= widest {
-            return Err(at_line(
-                file,
-                n,
-                format!("{} fields; expected at least {}", f.len(), widest + 1),
+    if f.len() <= widest {
+        return Err(format!(
+            "{} fields; expected at least {}",
+            f.len(),
+            widest + 1
+        ));
+    }
+    let t = match f[time_column].parse::<f64>() {
+        Ok(t) if t.is_finite() => t,
+        _ => {
+            return Err(format!(
+                "time {:?}; expected a finite number",
+                f[time_column]
             ));
         }
-        let t = match f[time_column].parse::<f64>() {
-            Ok(t) if t.is_finite() => t,
-            _ => {
-                return Err(at_line(
-                    file,
-                    n,
-                    format!("time {:?}; expected a finite number", f[time_column]),
-                ));
-            }
+    };
+    let mut values = Vec::with_capacity(columns.len());
+    for &c in columns {
+        values.push(match f[c] {
+            "" => None,
+            text => match text.parse::<f64>() {
+                Ok(v) if v.is_finite() => (v != 0.0).then_some(v),
+                _ => return Err(format!("column {c} = {text:?}; expected a number")),
+            },
+        });
+    }
+    Ok(Line::Row(t, values))
+}
+
+/// Read columns `columns` (0-based) against column `time_column`; `file` names it in messages.
+pub fn series(text: &str, file: &str, time_column: usize, columns: &[usize]) -> Result<Series> {
+    let mut s = Series {
+        t_s: Vec::new(),
+        values: vec![Vec::new(); columns.len()],
+    };
+    for (k, text) in text.lines().enumerate() {
+        let n = k + 1;
+        let (t, values) = match line(text, n, time_column, columns) {
+            Ok(Line::Nothing) => continue,
+            Ok(Line::Row(t, v)) => (t, v),
+            Err(e) => return Err(at_line(file, n, e)),
         };
         if let Some(&last) = s.t_s.last()
             && t <= last
@@ -65,20 +100,7 @@ pub fn series(text: &str, file: &str, time_column: usize, columns: &[usize]) -> 
             ));
         }
         s.t_s.push(t);
-        for (j, &c) in columns.iter().enumerate() {
-            let v = match f[c] {
-                "" => None,
-                text => match text.parse::<f64>() {
-                    Ok(v) if v.is_finite() => (v != 0.0).then_some(v),
-                    _ => {
-                        return Err(at_line(
-                            file,
-                            n,
-                            format!("column {c} = {text:?}; expected a number"),
-                        ));
-                    }
-                },
-            };
+        for (j, v) in values.into_iter().enumerate() {
             s.values[j].push(v);
         }
     }

@@ -47,6 +47,7 @@ pub mod params;
 pub mod replay;
 pub mod risk;
 pub mod skeleton;
+pub mod twin;
 
 pub use params::Params;
 
@@ -70,6 +71,11 @@ pub enum Error {
     /// The planner's verdict on the part (branching, too short, …): the user's input.
     Plan(String),
     Thermal(ThermalError),
+    /// Measurements that cannot serve as asked (no reading in a fit window, no metal laid):
+    /// the user's input.
+    Measured(String),
+    /// A state the engine should have kept and did not: a bug of ours, named.
+    Lost(String),
 }
 
 impl fmt::Display for Error {
@@ -77,6 +83,8 @@ impl fmt::Display for Error {
         match self {
             Error::Plan(e) => write!(f, "plan: {e}"),
             Error::Thermal(e) => write!(f, "thermal: {e}"),
+            Error::Measured(e) => f.write_str(e),
+            Error::Lost(e) => write!(f, "{e} (a bug)"),
         }
     }
 }

@@ -25,6 +25,72 @@ pub struct RawReplay {
     #[serde(default)]
     pub compare: RawCompare,
     pub calibrate: Option<RawCalibrate>,
+    /// How `follow` runs the twin on this build.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub live: Option<RawLive>,
+}
+
+/// `[live]`: the twin's ensemble, its filter, its forecasts and its alarms.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLive {
+    #[serde(default = "sixteen")]
+    pub ensemble: usize,
+    /// A reading's error (the sensor's and how well one voxel stands for it), °C.
+    #[serde(default = "five")]
+    pub reading_sd_c: f64,
+    /// Gaspari–Cohn half-width of the field's correction around a sensor (zero beyond twice
+    /// it), mm.
+    #[serde(default = "twenty_five")]
+    pub localisation_mm: f64,
+    /// Relaxation of the spread to its prior (RTPS, 0 none, 1 all): the inflation.
+    #[serde(default = "half")]
+    pub relaxation: f64,
+    /// Least build time between two analyses, s.
+    #[serde(default = "one")]
+    pub assimilate_every_s: f64,
+    /// Least build time between two updates of the parameters, s.
+    #[serde(default = "thirty")]
+    pub parameters_every_s: f64,
+    #[serde(default = "thirty")]
+    pub forecast_every_s: f64,
+    #[serde(default = "horizons")]
+    pub forecast_horizons_s: Vec<f64>,
+    /// Wall-clock seconds without a new reading before the source is said to stall.
+    #[serde(default = "thirty")]
+    pub stall_s: f64,
+    /// The interpass limit the alarms judge the next layer's start by, °C.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interpass_max_c: Option<f64>,
+    /// The twin's voxel edge where it is not `[thermal] voxel_mm` (a coarser grid keeps an
+    /// ensemble ahead of the cell), mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub voxel_mm: Option<f64>,
+    /// A calibration.json whose fitted values and intervals are the prior instead of
+    /// `[calibrate]`'s ranges.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prior: Option<String>,
+    #[serde(default = "one_u64")]
+    pub seed: u64,
+}
+
+fn five() -> f64 {
+    5.0
+}
+fn twenty_five() -> f64 {
+    25.0
+}
+fn half() -> f64 {
+    0.5
+}
+fn thirty() -> f64 {
+    30.0
+}
+fn horizons() -> Vec<f64> {
+    vec![60.0, 300.0]
+}
+fn one_u64() -> u64 {
+    1
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -186,41 +252,7 @@ pub struct RawParameter {
     pub high: f64,
 }
 
-/// A parameter a calibration may fit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Parameter {
-    Efficiency,
-    Convection,
-    Emissivity,
-    TableContact,
-}
-
-impl Parameter {
-    pub const ALL: [Parameter; 4] = [
-        Parameter::Efficiency,
-        Parameter::Convection,
-        Parameter::Emissivity,
-        Parameter::TableContact,
-    ];
-
-    /// Its key, as in the scenario's sections.
-    pub fn key(self) -> &'static str {
-        match self {
-            Parameter::Efficiency => "efficiency",
-            Parameter::Convection => "convection_w_m2k",
-            Parameter::Emissivity => "emissivity",
-            Parameter::TableContact => "table_contact_w_m2k",
-        }
-    }
-
-    /// The widest range it may be searched over.
-    fn limits(self) -> [f64; 2] {
-        match self {
-            Parameter::Efficiency | Parameter::Emissivity => [0.01, 1.0],
-            Parameter::Convection | Parameter::TableContact => [0.0, 10_000.0],
-        }
-    }
-}
+pub use crate::pipeline::replay::Parameter;
 
 /// A parameter to fit and its range.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -342,7 +374,19 @@ pub struct ReplayScenario {
     pub probes: Option<Probes>,
     pub window_s: Option<[f64; 2]>,
     pub calibrate: Option<Calibrate>,
+    /// `[live]`, checked; None where the scenario has none (`follow` then takes the defaults).
+    pub live: Option<Live>,
     pub raw: RawReplay,
+}
+
+/// `[live]`, checked, in SI where the engine takes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Live {
+    pub twin: crate::pipeline::twin::Settings,
+    pub stall_s: f64,
+    pub voxel_m: Option<f64>,
+    /// The calibration.json to take the prior from.
+    pub prior: Option<PathBuf>,
 }
 
 impl ReplayScenario {
@@ -437,6 +481,7 @@ impl ReplayScenario {
                 Some(k) => Some(calibrate(k, &raw, &thermal_start(&raw), &c)?),
                 None => None,
             },
+            live: raw.live.as_ref().map(|l| live(l, &c, base)).transpose()?,
             raw,
         })
     }
@@ -649,6 +694,85 @@ fn source(p: &RawLaying, c: &Checker) -> Result<thermal::voxel::HeatSource> {
             "\"arc\" or \"laser\"",
         )),
     }
+}
+
+/// No `[live]`: the documented defaults.
+impl Default for Live {
+    fn default() -> Live {
+        Live {
+            twin: crate::pipeline::twin::Settings::default(),
+            stall_s: 30.0,
+            voxel_m: None,
+            prior: None,
+        }
+    }
+}
+
+/// `[live]`, each key checked.
+fn live(l: &RawLive, c: &Checker, base: &Path) -> Result<Live> {
+    if !(2..=256).contains(&l.ensemble) {
+        return Err(c.fail("live", "ensemble", l.ensemble, "2 to 256 members"));
+    }
+    c.positive("live", "reading_sd_c", l.reading_sd_c, 1000.0)?;
+    c.positive("live", "localisation_mm", l.localisation_mm, 10_000.0)?;
+    c.range(
+        "live",
+        "relaxation",
+        l.relaxation,
+        0.0,
+        1.0,
+        "a share in [0, 1]",
+    )?;
+    c.positive("live", "assimilate_every_s", l.assimilate_every_s, 1e5)?;
+    c.positive("live", "forecast_every_s", l.forecast_every_s, 1e6)?;
+    c.positive("live", "parameters_every_s", l.parameters_every_s, 1e6)?;
+    c.positive("live", "stall_s", l.stall_s, 1e6)?;
+    let good = !l.forecast_horizons_s.is_empty()
+        && l.forecast_horizons_s.len() <= 16
+        && l.forecast_horizons_s
+            .iter()
+            .all(|h| h.is_finite() && *h > 0.0 && *h <= 1e5);
+    if !good {
+        return Err(c.fail(
+            "live",
+            "forecast_horizons_s",
+            format!("{:?}", l.forecast_horizons_s),
+            "1 to 16 horizons, each in (0, 1e5] s",
+        ));
+    }
+    if let Some(v) = l.interpass_max_c {
+        c.range(
+            "live",
+            "interpass_max_c",
+            v,
+            -200.0,
+            3000.0,
+            "a temperature in °C",
+        )?;
+    }
+    if let Some(v) = l.voxel_mm {
+        c.positive("live", "voxel_mm", v, 100.0)?;
+    }
+    let mut horizons_s = l.forecast_horizons_s.clone();
+    horizons_s.sort_by(f64::total_cmp);
+    horizons_s.dedup();
+    Ok(Live {
+        twin: crate::pipeline::twin::Settings {
+            ensemble: l.ensemble,
+            reading_sd_k: l.reading_sd_c,
+            localisation_m: l.localisation_mm * 1e-3,
+            relaxation: l.relaxation,
+            assimilate_every_s: l.assimilate_every_s,
+            parameters_every_s: l.parameters_every_s,
+            forecast_every_s: l.forecast_every_s,
+            horizons_s,
+            interpass_max_k: l.interpass_max_c.map(|v| v + KELVIN),
+            seed: l.seed,
+        },
+        stall_s: l.stall_s,
+        voxel_m: l.voxel_mm.map(|v| v * 1e-3),
+        prior: l.prior.as_ref().map(|p| base.join(p)),
+    })
 }
 
 /// The scenario's own values of the parameters a calibration may fit, where it starts.

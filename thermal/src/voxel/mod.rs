@@ -593,6 +593,57 @@ impl VoxelModel {
         }
     }
 
+    /// Active voxels whose centres lie within `radius` of `p` (m), with their distances: the
+    /// field a data assimilation corrects around a sensor.
+    pub fn voxels_within(&self, p: [f64; 3], radius: f64) -> Vec<(u32, f64)> {
+        let dx = self.settings.size;
+        let lo: [isize; 3] =
+            std::array::from_fn(|k| ((p[k] - radius - self.origin[k]) / dx).floor() as isize);
+        let hi: [isize; 3] =
+            std::array::from_fn(|k| ((p[k] + radius - self.origin[k]) / dx).ceil() as isize);
+        let clamp = |k: usize, x: isize| x.clamp(0, self.dims[k] as isize - 1) as usize;
+        let mut out = Vec::new();
+        for iz in clamp(2, lo[2])..=clamp(2, hi[2]) {
+            for iy in clamp(1, lo[1])..=clamp(1, hi[1]) {
+                for ix in clamp(0, lo[0])..=clamp(0, hi[0]) {
+                    let Some(&v) = self.index.get(&self.flat(ix, iy, iz)) else {
+                        continue;
+                    };
+                    let c = self.centre(ix, iy, iz);
+                    let d = ((c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2) + (c[2] - p[2]).powi(2))
+                        .sqrt();
+                    if d <= radius {
+                        out.push((v, d));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Put active voxel `v` at temperature `temp` (K): its enthalpy from its material, T and
+    /// Φ from the tables as a step leaves them. The heat this adds (or takes) is booked as
+    /// `assimilated`, so the energy balance still closes.
+    pub fn set_temperature(&mut self, v: u32, temp: f64) {
+        let (material, tables, _, mass) = self.material_of(v);
+        let h = material.enthalpy(temp);
+        let (t, phi) = tables.at(h as f32);
+        let i = v as usize;
+        self.ledger.assimilated += mass * (h - self.h[i] as f64);
+        self.h[i] = h as f32;
+        self.t[i] = t;
+        self.phi[i] = phi;
+        self.phi_next[i] = phi;
+    }
+
+    /// Take convection, emissivity and the table's contact conductance from now on (the
+    /// ambient stays: the tables are built on it).
+    pub fn set_losses(&mut self, convection_w_m2k: f64, emissivity: f64, table_w_m2k: f64) {
+        let s = &mut self.settings.surroundings;
+        (s.convection_w_m2k, s.emissivity, s.table_w_m2k) =
+            (convection_w_m2k, emissivity, table_w_m2k);
+    }
+
     fn mean_t(&self, v: &[u32]) -> f64 {
         if v.is_empty() {
             return self.settings.surroundings.ambient_k;
@@ -978,6 +1029,15 @@ pub struct VoxelRun {
 }
 
 impl VoxelRun {
+    /// The model as it stands: its field, read and corrected by a data assimilation.
+    pub fn model(&self) -> &VoxelModel {
+        &self.model
+    }
+
+    pub fn model_mut(&mut self) -> &mut VoxelModel {
+        &mut self.model
+    }
+
     /// Start a run; fails when the material leaves no stable step (no heat capacity, say).
     pub fn new(model: VoxelModel, deps: &[Deposit]) -> Result<VoxelRun, ThermalError> {
         let now = deps.first().map_or(0.0, |d| d.arc_start());
@@ -1182,6 +1242,11 @@ impl HeatRun for VoxelRun {
 
     fn quench(&mut self) {
         self.model.quench();
+    }
+
+    fn set_losses(&mut self, convection_w_m2k: f64, emissivity: f64, table_w_m2k: f64) {
+        self.model
+            .set_losses(convection_w_m2k, emissivity, table_w_m2k);
     }
 
     fn points(&self) -> &[PointResult] {

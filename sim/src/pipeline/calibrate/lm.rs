@@ -1,4 +1,4 @@
-//! Least-squares calibration of a few model parameters against measurements (no IO): a bounded
+//! Least squares for a few model parameters against measurements (no IO): a bounded
 //! Levenberg–Marquardt (Marquardt 1963, scaled damping) with forward-difference Jacobians,
 //! where every evaluation of the residuals is a heat-model run, so the count of evaluations is
 //! what the method is built around: each iteration costs n + 1 runs (n parameters), a rejected

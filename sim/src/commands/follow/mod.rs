@@ -1,0 +1,560 @@
+//! `waamtwin follow SCENARIO -o DIR [--until-idle-s S]`: the live twin on a build while it
+//! runs. The replay scenario's toolpath is the program; its probe file is followed as the
+//! logger writes it ([`tail`]), each row fed to the engine ([`crate::pipeline::twin::follow`])
+//! in time order. forecasts.csv, assimilation.csv, alarms.csv and follow.json are rewritten as
+//! the run goes (atomically) and at its end; the file contract is in `scenarios/README.md`.
+//!
+//! The run ends once the data reach the program's end plus the longest horizon (every
+//! forecast can be held against a reading), after `--until-idle-s` seconds with nothing new,
+//! or on Ctrl-C; a killed run goes on with `--resume` from its last checkpoint and writes
+//! what an uninterrupted one does.
+
+pub mod tail;
+
+use super::checkpoint;
+use super::replay::{names, set_up};
+use crate::error::{Error, Result};
+use crate::measured::probes::{self, Line};
+use crate::output::RunDir;
+use crate::pipeline::calibrate::Range;
+use crate::pipeline::checkpoint::Checkpoints;
+use crate::pipeline::replay::{BELOW_AMBIENT_K, Parameter, Replay};
+use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, Progress};
+use crate::pipeline::twin::{Twin, Uncertain};
+use crate::scenario::replay::{Live, ReplayScenario};
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::fmt::Write;
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+use tail::{Mark, Tail};
+use thermal::ZERO_CELSIUS_K as C;
+
+/// How long the loop sleeps when a look found nothing new.
+const POLL: Duration = Duration::from_millis(100);
+/// How often the files are rewritten while the run goes, wall-clock.
+const REWRITE: Duration = Duration::from_secs(10);
+/// A reading fed this long (wall) after it was read counts as the twin falling behind.
+const BEHIND_S: f64 = 5.0;
+
+/// What the shell counts beside the engine: kept with its checkpoints.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+struct Counters {
+    malformed: usize,
+    /// The first few malformed lines, named.
+    malformed_lines: Vec<String>,
+    below_ambient: usize,
+    /// Rows read again after the file was replaced or cut, at or before the last fed.
+    reread: usize,
+    restarts: Vec<String>,
+    /// (data time, wall seconds without a reading) of each stall.
+    stalls: Vec<(f64, f64)>,
+    /// Wall seconds spent feeding rows, and the build time they covered.
+    busy_s: f64,
+    first_data_s: Option<f64>,
+    lag_max_s: f64,
+    lag_sum_s: f64,
+    lag_n: usize,
+    /// Data times at which a reading was fed more than `BEHIND_S` after it was read.
+    behind_at_s: Vec<f64>,
+}
+
+/// The priors: `[live] prior`'s calibration.json where given, else `[calibrate]`'s ranges.
+fn priors(s: &ReplayScenario, live: &Live, r: &Replay) -> Result<Vec<Uncertain>> {
+    if let Some(file) = &live.prior {
+        return prior_of_calibration(file);
+    }
+    let Some(cal) = &s.calibrate else {
+        return Err(Error::input(
+            "follow needs the uncertain parameters: a [calibrate] section with their ranges, \
+             or [live] prior = a calibration.json",
+        ));
+    };
+    Ok(cal
+        .parameters
+        .iter()
+        .map(|f| Uncertain::from_range(f.parameter, f.range, f.parameter.of(&r.values)))
+        .collect())
+}
+
+/// A calibration.json's fitted values as the prior: its values the means, its 95 % intervals
+/// the spreads (±1.96 sd), its search ranges the bounds.
+fn prior_of_calibration(file: &Path) -> Result<Vec<Uncertain>> {
+    let name = file.display();
+    let text = super::replay::read(file)?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::input(format!("{name}: {e}; expected a calibration.json")))?;
+    let Some(list) = v.get("parameters").and_then(|p| p.as_array()) else {
+        return Err(Error::input(format!(
+            "{name}: no `parameters` list; expected a calibration.json"
+        )));
+    };
+    list.iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let key = p.get("name").and_then(|n| n.as_str()).unwrap_or("");
+            let num = |f: &str| p.get(f).and_then(|x| x.as_f64());
+            let parameter = Parameter::ALL.iter().find(|q| q.key() == key);
+            let (Some(&parameter), Some(value), Some(low), Some(high)) =
+                (parameter, num("value"), num("low"), num("high"))
+            else {
+                return Err(Error::input(format!(
+                    "{name}: parameters[{k}] = {p}; expected name, value, low and high"
+                )));
+            };
+            if !(low < high && (low..=high).contains(&value)) {
+                return Err(Error::input(format!(
+                    "{name}: parameters[{k}] {key} = {value} in [{low}, {high}]; expected a \
+                     value inside its range"
+                )));
+            }
+            let ci = p
+                .get("ci95")
+                .and_then(|c| c.as_array())
+                .and_then(|c| Some([c.first()?.as_f64()?, c.get(1)?.as_f64()?]));
+            let sd = ci.map_or((high - low) / 4.0, |[a, b]| {
+                ((b - a) / (2.0 * 1.96)).max(1e-9)
+            });
+            Ok(Uncertain {
+                parameter,
+                range: Range { low, high },
+                mean: value,
+                sd,
+            })
+        })
+        .collect()
+}
+
+/// A row's readings in °C, those below ambient dropped (counted), as replay reads them.
+fn in_celsius(values: &mut [Option<f64>], kelvin: bool, ambient_k: f64, c: &mut Counters) {
+    let floor_c = ambient_k - C - BELOW_AMBIENT_K;
+    for v in values.iter_mut() {
+        if let Some(x) = v {
+            if kelvin {
+                *x -= C;
+            }
+            if *x < floor_c {
+                *v = None;
+                c.below_ambient += 1;
+            }
+        }
+    }
+}
+
+pub fn run(
+    scenario: &Path,
+    out: &Path,
+    until_idle_s: Option<f64>,
+    resume: checkpoint::Options,
+) -> Result<String> {
+    let s = ReplayScenario::load(scenario)?;
+    let name = scenario.display().to_string();
+    let Some(p) = s.probes.clone() else {
+        return Err(Error::input(format!(
+            "{name}: no [probes]; follow needs the sensors it follows"
+        )));
+    };
+    if let Some(v) = until_idle_s
+        && !(v.is_finite() && v > 0.0)
+    {
+        return Err(Error::input(format!(
+            "--until-idle-s {v}; expected seconds, more than 0"
+        )));
+    }
+    let live = s.live.clone().unwrap_or_default();
+    let mut twin_scenario = s.clone();
+    if let Some(v) = live.voxel_m {
+        twin_scenario.thermal.voxel_m = v;
+    }
+    let r = set_up(&twin_scenario, 1.0)?;
+    let priors = priors(&s, &live, &r)?;
+    let print = checkpoint::of_run("follow", &s.to_json(), &r.deps);
+    let mut folder = checkpoint::Folder::open(out, "follow", print, resume)?;
+    let mut ck = Checkpoints::to(&mut folder);
+    let twin = Twin::new(&r, live.twin.clone(), priors.clone())
+        .map_err(|e| Error::from(e).context(&name))?;
+    let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
+    let (mut follower, mark, mut counters) = match ck.load::<(Progress, Mark, Counters)>("follow") {
+        Some((progress, mark, counters)) => {
+            (Follower::resume(twin, &r.deps, progress), mark, counters)
+        }
+        None => (
+            Follower::new(twin, &r.deps, p.points.len()),
+            Mark::default(),
+            Counters::default(),
+        ),
+    };
+    let mut tail = Tail::new(&p.file, mark);
+    let mut dir = RunDir::create(out)?;
+    let names = names(&p);
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let flag = interrupted.clone();
+        // A second handler (a test calling `run` twice) is refused; the first one still sets
+        // a flag nobody reads then, which only costs the graceful end.
+        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
+    }
+    let program_end = r.deps.last().map_or(0.0, |d| d.time);
+    let longest = live.twin.horizons_s.iter().copied().fold(0.0, f64::max);
+    let clock = Instant::now();
+    let (mut last_new, mut last_rewrite) = (Instant::now(), Instant::now());
+    let mut stalled = false;
+    let ending = loop {
+        if interrupted.load(Ordering::SeqCst) {
+            break "interrupted (Ctrl-C)";
+        }
+        let look = tail
+            .look()
+            .map_err(|e| Error::failure(format!("cannot read {}: {e}", p.file.display())))?;
+        let read_at = Instant::now();
+        if let Some(why) = look.restarted {
+            let line = format!("{}: {why}; read again from its start", p.file.display());
+            eprintln!("follow: {line}");
+            counters.restarts.push(line);
+        }
+        if !look.lines.is_empty() {
+            if stalled {
+                eprintln!(
+                    "follow: {}: readings again after {:.0} s",
+                    p.file.display(),
+                    last_new.elapsed().as_secs_f64()
+                );
+                if let Some(s) = counters.stalls.last_mut() {
+                    s.1 = last_new.elapsed().as_secs_f64();
+                }
+                stalled = false;
+            }
+            last_new = Instant::now();
+        }
+        let done = |f: &Follower| f.data_s().is_some_and(|d| d >= program_end + longest);
+        for (n, text) in look.lines {
+            // Rows past the end are left unread: where a run ends does not hang on how the
+            // file was cut into looks.
+            if done(&follower) {
+                break;
+            }
+            let (t, mut values) = match probes::line(&text, n, p.time_column, &columns) {
+                Ok(Line::Nothing) => continue,
+                Ok(Line::Row(t, v)) => (t, v),
+                Err(e) => {
+                    let line = format!("{} line {n}: {e}", p.file.display());
+                    eprintln!("follow: skipped {line}");
+                    counters.malformed += 1;
+                    if counters.malformed_lines.len() < 20 {
+                        counters.malformed_lines.push(line);
+                    }
+                    continue;
+                }
+            };
+            if !counters.restarts.is_empty() && follower.data_s().is_some_and(|d| t <= d) {
+                counters.reread += 1;
+                continue;
+            }
+            in_celsius(&mut values, p.kelvin, s.thermal.ambient_k, &mut counters);
+            let before = Instant::now();
+            let alarms = follower
+                .feed(t, &values)
+                .map_err(|e| Error::from(e).context(format!("follow at t = {t} s")))?;
+            for a in &alarms {
+                eprintln!("follow: {}", a.line());
+            }
+            counters.busy_s += before.elapsed().as_secs_f64();
+            counters.first_data_s.get_or_insert(t);
+            let lag = read_at.elapsed().as_secs_f64();
+            counters.lag_max_s = counters.lag_max_s.max(lag);
+            counters.lag_sum_s += lag;
+            counters.lag_n += 1;
+            if lag > BEHIND_S && counters.behind_at_s.len() < 1000 {
+                counters.behind_at_s.push(t);
+            }
+        }
+        let mark = tail.mark.clone();
+        ck.save_if_due("follow", || {
+            (follower.checkpoint().clone(), mark, counters.clone())
+        });
+        if last_rewrite.elapsed() >= REWRITE {
+            write(
+                &mut dir, &follower, &names, &priors, &counters, &clock, "running",
+            )?;
+            last_rewrite = Instant::now();
+        }
+        if done(&follower) {
+            break "the data reached the program's end and the longest horizon";
+        }
+        let idle = last_new.elapsed().as_secs_f64();
+        if until_idle_s.is_some_and(|u| idle >= u) {
+            break "nothing new for --until-idle-s";
+        }
+        if !stalled && idle >= live.stall_s {
+            stalled = true;
+            let at = follower.data_s().unwrap_or(f64::NAN);
+            eprintln!(
+                "follow: {}: no new reading for {:.0} s (data at t = {at:.1} s); the twin keeps \
+                 its state and waits",
+                p.file.display(),
+                idle
+            );
+            counters.stalls.push((at, idle));
+        }
+        if stalled && let Some(s) = counters.stalls.last_mut() {
+            s.1 = idle;
+        }
+        std::thread::sleep(POLL);
+    };
+    write(
+        &mut dir, &follower, &names, &priors, &counters, &clock, ending,
+    )?;
+    dir.finish("follow", s.to_json())?;
+    folder.close()?;
+    Ok(summary(&follower, &counters, ending))
+}
+
+/// Per horizon, over every probe: the forecasts' RMS against what was measured.
+fn summary(f: &Follower, c: &Counters, ending: &str) -> String {
+    let p = &f.progress;
+    let mut line = format!(
+        "{} rows, {} readings, {} forecasts, {} alarms; {ending}",
+        p.rows,
+        p.readings,
+        p.forecasts.len(),
+        p.alarms.len()
+    );
+    for h in horizons(&p.forecasts) {
+        if let Some(s) = score(&p.forecasts, |x| x.horizon == h) {
+            let _ = write!(
+                line,
+                "; {}: RMS {:.1} °C (open loop {:.1}, persistence {:.1})",
+                h.label(),
+                s.assimilated_rms_c,
+                s.open_loop_rms_c,
+                s.persistence_rms_c
+            );
+        }
+    }
+    if c.malformed + p.back_in_time > 0 {
+        let _ = write!(
+            line,
+            "; refused {} malformed, {} back in time",
+            c.malformed, p.back_in_time
+        );
+    }
+    line
+}
+
+/// The horizons forecast, in order.
+fn horizons(forecasts: &[Forecast]) -> Vec<Horizon> {
+    let mut out: Vec<Horizon> = Vec::new();
+    for f in forecasts {
+        if !out.contains(&f.horizon) {
+            out.push(f.horizon);
+        }
+    }
+    out.sort_by(|a, b| match (a, b) {
+        (Horizon::After(x), Horizon::After(y)) => x.total_cmp(y),
+        (Horizon::After(_), Horizon::NextLayer) => std::cmp::Ordering::Less,
+        (Horizon::NextLayer, Horizon::After(_)) => std::cmp::Ordering::Greater,
+        _ => std::cmp::Ordering::Equal,
+    });
+    out
+}
+
+/// How well forecasts did against what was measured.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+struct Score {
+    forecasts: usize,
+    assimilated_rms_c: f64,
+    open_loop_rms_c: f64,
+    persistence_rms_c: f64,
+    /// The ensemble's own mean, before what the sensor taught.
+    ensemble_rms_c: f64,
+    /// Share of the readings inside the 5–95 % band.
+    band_coverage: f64,
+}
+
+/// The score of the measured forecasts `keep` picks (those with a persistence too, so that
+/// the three are judged on the same readings); None without one.
+fn score(forecasts: &[Forecast], keep: impl Fn(&Forecast) -> bool) -> Option<Score> {
+    let (mut n, mut a, mut o, mut p, mut e, mut inside) = (0usize, 0.0, 0.0, 0.0, 0.0, 0usize);
+    for f in forecasts.iter().filter(|f| keep(f)) {
+        let (Some(m), Some(pers)) = (f.measured_c, f.persistence_c) else {
+            continue;
+        };
+        n += 1;
+        a += (f.predicted_c - m).powi(2);
+        o += (f.open_loop_c - m).powi(2);
+        p += (pers - m).powi(2);
+        e += (f.ensemble_c - m).powi(2);
+        inside += usize::from(f.p05_c <= m && m <= f.p95_c);
+    }
+    let rms = |x: f64| (x / n as f64).sqrt();
+    (n > 0).then(|| Score {
+        forecasts: n,
+        assimilated_rms_c: rms(a),
+        open_loop_rms_c: rms(o),
+        persistence_rms_c: rms(p),
+        ensemble_rms_c: rms(e),
+        band_coverage: inside as f64 / n as f64,
+    })
+}
+
+/// forecasts.csv, assimilation.csv, alarms.csv and follow.json as they stand.
+fn write(
+    dir: &mut RunDir,
+    f: &Follower,
+    names: &[String],
+    priors: &[Uncertain],
+    c: &Counters,
+    clock: &Instant,
+    state: &str,
+) -> Result<()> {
+    let p = &f.progress;
+    let cell = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.2}"));
+    let mut csv = String::from(
+        "made_at_s,target_t_s,probe,predicted_c,p05_c,p95_c,open_loop_c,measured_c,horizon,\
+         persistence_c,ensemble_c\n",
+    );
+    for x in &p.forecasts {
+        let _ = writeln!(
+            csv,
+            "{:.3},{:.3},{},{:.2},{:.2},{:.2},{:.2},{},{},{},{:.2}",
+            x.made_at_s,
+            x.target_t_s,
+            names[x.probe],
+            x.predicted_c,
+            x.p05_c,
+            x.p95_c,
+            x.open_loop_c,
+            cell(x.measured_c),
+            x.horizon.label(),
+            cell(x.persistence_c),
+            x.ensemble_c,
+        );
+    }
+    dir.write("forecasts.csv", csv.as_bytes())?;
+    let mut csv = String::from("t_s,parameter,mean,sd\n");
+    for &(t, k, mean, sd) in &p.settling {
+        let _ = writeln!(
+            csv,
+            "{t:.3},{},{mean:.6},{sd:.6}",
+            priors[k].parameter.key()
+        );
+    }
+    dir.write("assimilation.csv", csv.as_bytes())?;
+    let mut csv = String::from(
+        "made_at_s,layer,criterion,predicted_p95_c,limit_c,programmed_dwell_s,advised_dwell_s,\
+         extra_dwell_s\n",
+    );
+    for a in &p.alarms {
+        let _ = writeln!(
+            csv,
+            "{:.3},{},{},{:.2},{:.2},{:.1},{},{}",
+            a.made_at_s,
+            a.layer,
+            a.criterion,
+            a.predicted_p95_c,
+            a.limit_c,
+            a.programmed_dwell_s,
+            a.advised_dwell_s
+                .map_or(String::new(), |v| format!("{v:.1}")),
+            a.extra_s().map_or(String::new(), |v| format!("{v:.1}")),
+        );
+    }
+    dir.write("alarms.csv", csv.as_bytes())?;
+    dir.write_json("follow.json", &report(f, names, c, clock, state))?;
+    Ok(())
+}
+
+fn report(
+    f: &Follower,
+    names: &[String],
+    c: &Counters,
+    clock: &Instant,
+    state: &str,
+) -> serde_json::Value {
+    let p = &f.progress;
+    let followed_s = match (c.first_data_s, f.data_s()) {
+        (Some(a), Some(b)) => b - a,
+        _ => 0.0,
+    };
+    let scores: Vec<serde_json::Value> = horizons(&p.forecasts)
+        .into_iter()
+        .map(|h| {
+            let per_probe: serde_json::Map<String, serde_json::Value> = names
+                .iter()
+                .enumerate()
+                .map(|(k, n)| {
+                    let s = score(&p.forecasts, |x| x.horizon == h && x.probe == k);
+                    (n.clone(), json!(s))
+                })
+                .collect();
+            json!({
+                "horizon": h.label(),
+                "all": score(&p.forecasts, |x| x.horizon == h),
+                "per_probe": per_probe,
+            })
+        })
+        .collect();
+    let twin = &f.twin;
+    let parameters: Vec<serde_json::Value> = twin
+        .parameters()
+        .into_iter()
+        .zip(&twin.priors)
+        .map(|((q, mean, sd), u)| {
+            json!({"name": q.key(), "mean": mean, "sd": sd, "prior_mean": u.mean,
+                   "prior_sd": u.sd, "low": u.range.low, "high": u.range.high})
+        })
+        .collect();
+    let st = &twin.state;
+    json!({
+        "state": state,
+        "ensemble": twin.settings.ensemble,
+        "rows": p.rows,
+        "readings": p.readings,
+        "analyses": st.analyses,
+        "readings_assimilated": st.assimilated,
+        "innovation_rms_c": (st.assimilated > 0)
+            .then(|| (st.innovation_sq / st.assimilated as f64).sqrt()),
+        "refused": {
+            "malformed": c.malformed,
+            "malformed_lines": c.malformed_lines,
+            "back_in_time": p.back_in_time,
+            "below_ambient": c.below_ambient,
+            "read_again": c.reread,
+        },
+        "restarts": c.restarts,
+        "stalls": c.stalls.iter().map(|s| json!({"at_data_s": s.0, "wall_s": s.1}))
+            .collect::<Vec<_>>(),
+        "data_s": f.data_s(),
+        "followed_build_s": followed_s,
+        "busy_wall_s": c.busy_s,
+        "wall_s": clock.elapsed().as_secs_f64(),
+        // Build seconds followed per wall second spent computing: how much faster than the
+        // cell the twin could go (the wall clock it waited for data left out).
+        "real_time_factor": (c.busy_s > 0.0).then(|| followed_s / c.busy_s),
+        "lag_s": {
+            "max": c.lag_max_s,
+            "mean": (c.lag_n > 0).then(|| c.lag_sum_s / c.lag_n as f64),
+            "behind_threshold_s": BEHIND_S,
+            "behind_at_data_s": c.behind_at_s,
+        },
+        "forecasts": p.forecasts.len(),
+        "scores": scores,
+        "parameters": parameters,
+        "alarms": p.alarms.iter().map(alarm_json).collect::<Vec<_>>(),
+    })
+}
+
+fn alarm_json(a: &Alarm) -> serde_json::Value {
+    json!({
+        "made_at_s": a.made_at_s,
+        "layer": a.layer,
+        "criterion": a.criterion,
+        "predicted_p95_c": a.predicted_p95_c,
+        "limit_c": a.limit_c,
+        "programmed_dwell_s": a.programmed_dwell_s,
+        "advised_dwell_s": a.advised_dwell_s,
+        "extra_dwell_s": a.extra_s(),
+    })
+}

@@ -1,0 +1,243 @@
+//! Calibration of a replay against its probes (no IO): up to three parameters fitted by least
+//! squares ([`lm`]) over a fit window, each evaluation a run of the heat model stopped at the
+//! window's end.
+//!
+//! A fit run stops at the end of the fit window: the model is the same up to there whatever
+//! comes after, so a fit over the first half of a build costs half a build per run. Every
+//! parameter acts from the first deposit on, so no fit run can start later than t = 0; but the
+//! runs with the starting values and with the fitted ones are kept where they stopped
+//! (checkpoints), and the held-out window is reached by going on from them rather than by two
+//! runs from the start.
+
+pub mod lm;
+
+pub use lm::{Fit, Range, Settings, fit};
+
+use super::Error;
+use super::checkpoint::Checkpoints;
+use super::replay::{self, Parameter, Replay, advance_kept};
+use crate::measured::probes::Series;
+use serde::{Deserialize, Serialize};
+use thermal::run::ProbeTrace;
+use thermal::schedule::Deposit;
+use thermal::{HeatRun, ModelRun};
+
+/// What to fit, where, and how many runs it may take.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Task {
+    pub parameters: Vec<(Parameter, Range)>,
+    /// Build time the fit is judged over, s.
+    pub fit_s: [f64; 2],
+    /// Build time the end of the runs reaches (the held-out window's end), s.
+    pub end_s: f64,
+    pub max_runs: usize,
+}
+
+/// A finished calibration: the fit, and the probes' traces over the whole build at the
+/// starting and at the fitted values.
+#[derive(Debug, Clone)]
+pub struct Calibrated {
+    pub start: Vec<f64>,
+    pub fit: Fit,
+    /// Measured samples inside the fit window, and how many of them count as independent.
+    pub samples: usize,
+    pub independent: usize,
+    pub before: Vec<ProbeTrace>,
+    pub after: Vec<ProbeTrace>,
+}
+
+/// A run with `values` stopped at the end of the fit window: the probes' traces so far, and
+/// the run itself to go on from (its checkpoint; `None` once the fit no longer needs it).
+#[derive(Clone, Serialize, Deserialize)]
+struct Stopped {
+    values: Vec<f64>,
+    traces: Vec<ProbeTrace>,
+    run: Option<ModelRun>,
+    deps: Vec<Deposit>,
+}
+
+impl Stopped {
+    /// The traces alone: what a checkpoint keeps of an evaluation the fit cannot end at.
+    fn light(&self) -> Stopped {
+        Stopped {
+            values: self.values.clone(),
+            traces: self.traces.clone(),
+            run: None,
+            deps: Vec::new(),
+        }
+    }
+}
+
+/// Fit `task` to the measurements `m` (°C) of `r`'s probes, kept in `ck` as it goes.
+pub fn calibrate(
+    r: &Replay,
+    m: &Series,
+    task: &Task,
+    ck: &mut Checkpoints<'_>,
+) -> Result<Calibrated, Error> {
+    let names: Vec<Parameter> = task.parameters.iter().map(|p| p.0).collect();
+    let ranges: Vec<Range> = task.parameters.iter().map(|p| p.1).collect();
+    let start: Vec<f64> = names.iter().map(|p| p.of(&r.values)).collect();
+    let fit_w = task.fit_s;
+    // Each evaluation of the fit is a stage of its own: a run that resumes takes those done
+    // and the fit, deterministic, asks for them again in the same order.
+    let evaluate = |k: usize, values: &[f64], ck: &mut Checkpoints<'_>| {
+        ck.stage(&format!("evaluation-{k}"), |ck, progress| {
+            stopped(r, &names, values, fit_w[1], ck, progress)
+        })
+        .map(|done| done.0)
+    };
+    let first = evaluate(0, &start, ck)?;
+    let samples = fit_samples(m, &first.traces, fit_w);
+    if samples.is_empty() {
+        return Err(Error::Measured(format!(
+            "no probe reads inside the fit window {fit_w:?} s; expected some samples there"
+        )));
+    }
+    let settings = Settings {
+        max_runs: task.max_runs,
+        independent: independent(m, &samples),
+        ..Settings::default()
+    };
+    // The fit ends at a point it evaluated within its last iteration or the Jacobian after
+    // it (at most 2n + 2 evaluations back, n parameters): keep that many stopped runs, and the
+    // first (the starting values, as the fit put them), which `before` goes on from. An
+    // evaluation that drops out is kept as its traces alone.
+    let keep = 2 * names.len() + 3;
+    let mut recent: Vec<(usize, Stopped)> = Vec::new();
+    let mut first = Some(first);
+    let mut k = 0;
+    let found = fit(&start, &ranges, settings, |values| {
+        let run = match first.take() {
+            // The first evaluation is the run made above.
+            Some(f) => Stopped {
+                values: values.to_vec(),
+                ..f
+            },
+            None => evaluate(k, values, ck)?,
+        };
+        let residuals = residuals(m, &run.traces, &samples);
+        recent.push((k, run));
+        k += 1;
+        if recent.len() > keep + 1 {
+            let (gone, run) = recent.remove(1);
+            ck.save(&format!("evaluation-{gone}"), &run.light());
+        }
+        Ok::<_, Error>(residuals)
+    })?;
+    let before = recent.first().map(|r| r.1.clone());
+    let after = recent
+        .iter()
+        .rev()
+        .find(|s| s.1.values == found.values)
+        .map(|r| r.1.clone());
+    let (before, after) = match (before, after) {
+        (Some(b), Some(a)) => (b, a),
+        // Not reached while `keep` holds what the fit can end at; a run from the start if so.
+        (b, a) => {
+            let fresh =
+                |values: &[f64]| stopped(r, &names, values, fit_w[1], &mut Checkpoints::off(), "");
+            (
+                b.map_or_else(|| fresh(&start), Ok)?,
+                a.map_or_else(|| fresh(&found.values), Ok)?,
+            )
+        }
+    };
+    drop(recent);
+    let (before, _) = ck.stage("before_to_end", |ck, progress| {
+        resumed(before, task.end_s, ck, progress)
+    })?;
+    let (after, _) = ck.stage("after_to_end", |ck, progress| {
+        resumed(after, task.end_s, ck, progress)
+    })?;
+    Ok(Calibrated {
+        start,
+        fit: found,
+        samples: samples.len(),
+        independent: settings.independent,
+        before,
+        after,
+    })
+}
+
+/// Run with `values` of `parameters` from the start until `until_s`, kept under `progress`.
+fn stopped(
+    r: &Replay,
+    parameters: &[Parameter],
+    values: &[f64],
+    until_s: f64,
+    ck: &mut Checkpoints<'_>,
+    progress: &str,
+) -> Result<Stopped, Error> {
+    let (deps, mut run) = match ck.load::<(Vec<Deposit>, ModelRun)>(progress) {
+        Some(kept) => kept,
+        None => r.start(&r.values.with(parameters, values))?,
+    };
+    advance_kept(&mut run, &deps, until_s, ck, progress)?;
+    Ok(Stopped {
+        values: values.to_vec(),
+        traces: run.clone().finish().probes,
+        run: Some(run),
+        deps,
+    })
+}
+
+/// Go on from a stopped run to `until_s`: the probes' traces from the start.
+fn resumed(
+    s: Stopped,
+    until_s: f64,
+    ck: &mut Checkpoints<'_>,
+    progress: &str,
+) -> Result<Vec<ProbeTrace>, Error> {
+    let (deps, mut run) = match ck.load::<(Vec<Deposit>, ModelRun)>(progress) {
+        Some(kept) => kept,
+        None => match s.run {
+            Some(run) => (s.deps, run),
+            None => {
+                return Err(Error::Lost(
+                    "calibrate: a run the fit ended at was not kept".into(),
+                ));
+            }
+        },
+    };
+    advance_kept(&mut run, &deps, until_s, ck, progress)?;
+    Ok(run.finish().probes)
+}
+
+/// The measured samples (probe, index) inside `window` where the first run predicts too.
+fn fit_samples(m: &Series, traces: &[ProbeTrace], window: [f64; 2]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for (k, (values, trace)) in m.values.iter().zip(traces).enumerate() {
+        for (j, (&t, v)) in m.t_s.iter().zip(values).enumerate() {
+            let inside = t >= window[0] && t <= window[1];
+            if inside && v.is_some() && replay::pair(&[t], &[*v], trace).len() == 1 {
+                out.push((k, j));
+            }
+        }
+    }
+    out
+}
+
+/// Predicted − measured at each fit sample (°C); 0 where the model does not read.
+fn residuals(m: &Series, traces: &[ProbeTrace], samples: &[(usize, usize)]) -> Vec<f64> {
+    samples
+        .iter()
+        .map(|&(k, j)| {
+            let (t, v) = (m.t_s[j], m.values[k][j]);
+            replay::pair(&[t], &[v], &traces[k])
+                .first()
+                .map_or(0.0, |s| s.2 - s.1)
+        })
+        .collect()
+}
+
+/// Samples a second apart per probe: what the intervals count as independent (an IR camera at
+/// 12.5 Hz sees the same cooling curve a dozen times a second).
+fn independent(m: &Series, samples: &[(usize, usize)]) -> usize {
+    let mut seconds: Vec<(usize, i64)> = samples
+        .iter()
+        .map(|&(k, j)| (k, m.t_s[j].floor() as i64))
+        .collect();
+    seconds.dedup();
+    seconds.len()
+}

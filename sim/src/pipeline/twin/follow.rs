@@ -1,0 +1,492 @@
+//! Following a build as its readings arrive (no IO: the command tails the files and feeds the
+//! rows here): each row assimilated in time order, forecasts made at their moments (every
+//! `forecast_every_s` and at each layer's end) from the readings up to then and no later,
+//! filled in with what was measured once their time has come, and at each layer's end the next
+//! layer's start judged against the interpass limit at its 95th percentile.
+//!
+//! A forecast is the ensemble's, put on the sensor's own footing: the last reading plus the
+//! change the ensemble forecasts, that change weighed by what the sensor taught so far (per
+//! probe and horizon, a line fitted by recursive least squares to the forecasts already
+//! verified: model output statistics, Glahn & Lowry 1972, J. Appl. Meteor. 11, 1203–1211).
+//! Where the model is right about a sensor the weight stays near 1; where the sensor sees less
+//! of each pass than the model does (a thermocouple further from the bead than thought) it
+//! falls toward 0, and the forecast toward persistence. The ensemble's own mean is kept beside
+//! it (`ensemble_c`).
+//!
+//! A layer is a pass of the torch as a replay cuts them ([`replay::pass_starts`]): a track after
+//! travel or after a pause with the arc off. A CTPP spiral's revolution would be one too once
+//! its `path.csv` is the program (not built yet).
+
+use super::{Twin, enkf, probe_k, quantile};
+use crate::pipeline::Error;
+use crate::pipeline::replay::{self, Parameter};
+use serde::{Deserialize, Serialize};
+use thermal::ZERO_CELSIUS_K as C;
+use thermal::schedule::Deposit;
+use thermal::{HeatRun, ModelRun};
+
+/// One layer of the program: deposits `first..=last`, from its first arc to its last deposit's
+/// end, s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Layer {
+    pub first: usize,
+    pub last: usize,
+    pub start_s: f64,
+    pub end_s: f64,
+}
+
+/// The program's layers, in order.
+pub fn layers(deps: &[Deposit]) -> Vec<Layer> {
+    let starts = replay::pass_starts(deps);
+    let mut firsts: Vec<usize> = Vec::new();
+    for (i, d) in deps.iter().enumerate() {
+        let paused = i > 0 && d.arc_start() > deps[i - 1].time + 1e-9;
+        if i == 0 || d.start.is_some() || paused {
+            firsts.push(i);
+        }
+    }
+    debug_assert_eq!(firsts.len(), starts.len());
+    firsts
+        .iter()
+        .enumerate()
+        .map(|(k, &first)| {
+            let last = firsts.get(k + 1).map_or(deps.len() - 1, |&n| n - 1);
+            Layer {
+                first,
+                last,
+                start_s: deps[first].arc_start(),
+                end_s: deps[last].time,
+            }
+        })
+        .collect()
+}
+
+/// What a forecast is for: a time ahead, or the next layer's start.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Horizon {
+    After(f64),
+    NextLayer,
+}
+
+impl Horizon {
+    pub fn label(&self) -> String {
+        match self {
+            Horizon::After(h) => format!("{h}"),
+            Horizon::NextLayer => "next_layer".into(),
+        }
+    }
+}
+
+/// One probe's forecast, °C.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Forecast {
+    pub made_at_s: f64,
+    pub target_t_s: f64,
+    pub probe: usize,
+    pub horizon: Horizon,
+    /// The twin's forecast (the module's doc), and its 5–95 % band: the members' spread
+    /// weighed as the change is and the error of the verified forecasts together, as a normal
+    /// (± 1.645·√(w²σ²_members + σ²_verified)).
+    pub predicted_c: f64,
+    pub p05_c: f64,
+    pub p95_c: f64,
+    /// The open loop: the scenario's values, corrected by nothing.
+    pub open_loop_c: f64,
+    /// The last reading at `made_at_s`, carried forward: the forecast any spreadsheet makes.
+    pub persistence_c: Option<f64>,
+    /// What the probe read at `target_t_s` (linear between the rows around it), once read.
+    pub measured_c: Option<f64>,
+    /// The ensemble's mean at the target, and the change it forecast from `made_at_s`.
+    pub ensemble_c: f64,
+    change_c: f64,
+    /// Which learned line this forecast uses and teaches.
+    class: usize,
+}
+
+/// The most a learned line weighs the ensemble's change by.
+const W_MAX: f64 = 1.5;
+
+/// Forgetting of the learned lines per verified forecast: about the last 50 weigh.
+const FORGET: f64 = 0.98;
+
+/// A line y = w·x + b fitted by recursive least squares with forgetting, and the variance of
+/// its errors before each update (the error a forecast made with it should expect).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Learned {
+    theta: [f64; 2],
+    p: [[f64; 2]; 2],
+    error_var: f64,
+    verified: usize,
+}
+
+impl Learned {
+    /// Before any verification: the ensemble's change not yet trusted (w = 0 ± 1, b = 0 ± 1
+    /// °C: persistence until the verified forecasts show what the model's change is worth),
+    /// and the reading's error.
+    fn new(sd_reading: f64) -> Learned {
+        Learned {
+            theta: [0.0, 0.0],
+            p: [[1.0, 0.0], [0.0, 1.0]],
+            error_var: sd_reading * sd_reading,
+            verified: 0,
+        }
+    }
+
+    fn predict(&self, x: f64) -> f64 {
+        self.theta[0] * x + self.theta[1]
+    }
+
+    fn learn(&mut self, x: f64, y: f64) {
+        let e = y - self.predict(x);
+        let px = [
+            self.p[0][0] * x + self.p[0][1],
+            self.p[1][0] * x + self.p[1][1],
+        ];
+        let denominator = FORGET + x * px[0] + px[1];
+        let k = [px[0] / denominator, px[1] / denominator];
+        // The weight stays within [0, W_MAX]: a model whose change counts against the data,
+        // or for more than the data's, is one a few early verifications misled (a first pass
+        // the model put late fits any slope).
+        self.theta = [
+            (self.theta[0] + k[0] * e).clamp(0.0, W_MAX),
+            self.theta[1] + k[1] * e,
+        ];
+        // P = (P − k·(xᵀP)) / λ, with xᵀP = pxᵀ (P symmetric).
+        for i in 0..2 {
+            for j in 0..2 {
+                self.p[i][j] = (self.p[i][j] - k[i] * px[j]) / FORGET;
+            }
+        }
+        self.error_var = FORGET * self.error_var + (1.0 - FORGET) * e * e;
+        self.verified += 1;
+    }
+}
+
+/// A layer whose start the forecast puts at risk.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Alarm {
+    pub made_at_s: f64,
+    /// The layer at risk, counted from 1.
+    pub layer: usize,
+    pub criterion: String,
+    /// The 95th percentile over the members of the hottest metal the layer is laid on, as it
+    /// starts, °C.
+    pub predicted_p95_c: f64,
+    pub limit_c: f64,
+    /// The dwell the program has before the layer, and the one that keeps it safe (None:
+    /// more than an hour), s.
+    pub programmed_dwell_s: f64,
+    pub advised_dwell_s: Option<f64>,
+}
+
+impl Alarm {
+    /// The dwell to add, s.
+    pub fn extra_s(&self) -> Option<f64> {
+        self.advised_dwell_s.map(|a| a - self.programmed_dwell_s)
+    }
+
+    /// The line printed on stderr.
+    pub fn line(&self) -> String {
+        let advice = match self.advised_dwell_s {
+            Some(a) => format!(
+                "advised dwell {a:.0} s (+{:.0} s)",
+                a - self.programmed_dwell_s
+            ),
+            None => "no dwell up to an hour brings it under".into(),
+        };
+        format!(
+            "alarm at t = {:.0} s: layer {} would start on metal at {:.0} °C (95 %), {} limit \
+             {:.0} °C; the program dwells {:.0} s, {advice}",
+            self.made_at_s,
+            self.layer,
+            self.predicted_p95_c,
+            self.criterion,
+            self.limit_c,
+            self.programmed_dwell_s
+        )
+    }
+}
+
+/// One analysis' parameters: t_s, parameter, mean, sd.
+pub type Settling = (f64, Parameter, f64, f64);
+
+/// What a follow changes as it goes, beside the twin: what a checkpoint keeps.
+#[derive(Clone, Serialize, Deserialize)]
+pub struct Progress {
+    pub twin: super::State,
+    next_moment: usize,
+    /// The last row fed: its time and readings (°C).
+    last_row: Option<(f64, Vec<Option<f64>>)>,
+    /// Per probe, its last reading (°C).
+    last_seen: Vec<Option<f64>>,
+    pub forecasts: Vec<Forecast>,
+    /// Forecasts still waiting for their measurement.
+    pending: Vec<usize>,
+    pub alarms: Vec<Alarm>,
+    pub settling: Vec<(f64, usize, f64, f64)>,
+    /// Per probe and horizon class, what the verified forecasts taught.
+    learned: Vec<Learned>,
+    pub rows: usize,
+    pub readings: usize,
+    /// Rows refused because they went back in time.
+    pub back_in_time: usize,
+}
+
+/// A build followed: the twin, the program's layers and the moments forecasts are made at.
+pub struct Follower<'a> {
+    pub twin: Twin<'a>,
+    pub layers: Vec<Layer>,
+    /// Build times forecasts are made at, ascending, with the layer that ends there.
+    moments: Vec<(f64, Option<usize>)>,
+    pub progress: Progress,
+}
+
+impl<'a> Follower<'a> {
+    pub fn new(twin: Twin<'a>, deps: &[Deposit], probes: usize) -> Follower<'a> {
+        let classes = probes * (twin.settings.horizons_s.len() + 1);
+        let learned = vec![Learned::new(twin.settings.reading_sd_k); classes];
+        let progress = Progress {
+            learned,
+            twin: twin.state.clone(),
+            next_moment: 0,
+            last_row: None,
+            last_seen: vec![None; probes],
+            forecasts: Vec::new(),
+            pending: Vec::new(),
+            alarms: Vec::new(),
+            settling: Vec::new(),
+            rows: 0,
+            readings: 0,
+            back_in_time: 0,
+        };
+        Follower::resume(twin, deps, progress)
+    }
+
+    /// A follow that goes on from `progress` (a checkpoint).
+    pub fn resume(mut twin: Twin<'a>, deps: &[Deposit], progress: Progress) -> Follower<'a> {
+        twin.state = progress.twin.clone();
+        let layers = layers(deps);
+        let (start, end) = (
+            deps.first().map_or(0.0, |d| d.arc_start()),
+            deps.last().map_or(0.0, |d| d.time),
+        );
+        let every = twin.settings.forecast_every_s;
+        let mut moments: Vec<(f64, Option<usize>)> = (1..)
+            .map(|k| k as f64 * every)
+            .skip_while(|&t| t <= start)
+            .take_while(|&t| t < end)
+            .map(|t| (t, None))
+            .collect();
+        moments.extend(
+            layers
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| k + 1 < layers.len())
+                .map(|(k, l)| (l.end_s, Some(k))),
+        );
+        moments.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        Follower {
+            twin,
+            layers,
+            moments,
+            progress,
+        }
+    }
+
+    /// The state to keep (the twin's taken into it).
+    pub fn checkpoint(&mut self) -> &Progress {
+        self.progress.twin = self.twin.state.clone();
+        &self.progress
+    }
+
+    /// The build time of the last row fed, s.
+    pub fn data_s(&self) -> Option<f64> {
+        self.progress.last_row.as_ref().map(|r| r.0)
+    }
+
+    /// Feed one row: its time and per probe its reading in °C (None: no reading). A row at or
+    /// before the last one's time is refused (counted). Returns the alarms it raised.
+    pub fn feed(&mut self, t_s: f64, values: &[Option<f64>]) -> Result<Vec<Alarm>, Error> {
+        if self.data_s().is_some_and(|last| t_s <= last) {
+            self.progress.back_in_time += 1;
+            return Ok(Vec::new());
+        }
+        let mut raised = Vec::new();
+        // Forecasts due before this row are made from the readings before it.
+        while let Some(&(at, layer)) = self.moments.get(self.progress.next_moment) {
+            if at >= t_s {
+                break;
+            }
+            self.twin.advance(at)?;
+            raised.extend(self.forecast(at, layer)?);
+            self.progress.next_moment += 1;
+        }
+        let readings: Vec<(usize, f64)> = values
+            .iter()
+            .enumerate()
+            .filter_map(|(k, v)| v.map(|v| (k, v + C)))
+            .collect();
+        if self.twin.assimilate(t_s, &readings)? {
+            for (k, (p, mean, sd)) in self.twin.parameters().into_iter().enumerate() {
+                debug_assert_eq!(p, self.twin.priors[k].parameter);
+                self.progress.settling.push((t_s, k, mean, sd));
+            }
+        }
+        self.fill(t_s, values);
+        for (k, v) in values.iter().enumerate() {
+            if v.is_some() {
+                self.progress.last_seen[k] = *v;
+                self.progress.readings += 1;
+            }
+        }
+        self.progress.rows += 1;
+        self.progress.last_row = Some((t_s, values.to_vec()));
+        Ok(raised)
+    }
+
+    /// Fill in the pending forecasts whose target lies up to `t_s`, between the last row and
+    /// this one.
+    fn fill(&mut self, t_s: f64, values: &[Option<f64>]) {
+        let last = self.progress.last_row.clone();
+        let forecasts = &mut self.progress.forecasts;
+        let learned = &mut self.progress.learned;
+        self.progress.pending.retain(|&i| {
+            let f = &mut forecasts[i];
+            if f.target_t_s > t_s {
+                return true;
+            }
+            let now = values.get(f.probe).copied().flatten();
+            let before = last
+                .as_ref()
+                .and_then(|(t, v)| v.get(f.probe).copied().flatten().map(|v| (*t, v)));
+            f.measured_c = match (before, now) {
+                (Some((t0, v0)), Some(v1)) if t_s > t0 => {
+                    Some(v0 + (f.target_t_s - t0) / (t_s - t0) * (v1 - v0))
+                }
+                (_, Some(v1)) => Some(v1),
+                (Some((_, v0)), None) => Some(v0),
+                (None, None) => None,
+            };
+            if let (Some(m), Some(y0)) = (f.measured_c, f.persistence_c) {
+                learned[f.class].learn(f.change_c, m - y0);
+            }
+            false
+        });
+    }
+
+    /// The forecasts made at `at` (the twin stands there), and at a layer's end the next
+    /// layer's judgement.
+    fn forecast(&mut self, at: f64, layer: Option<usize>) -> Result<Vec<Alarm>, Error> {
+        let next = self.layers.iter().position(|l| l.start_s > at);
+        let mut targets: Vec<(f64, Horizon)> = self
+            .twin
+            .settings
+            .horizons_s
+            .iter()
+            .map(|&h| (at + h, Horizon::After(h)))
+            .collect();
+        if let Some(n) = next {
+            targets.push((self.layers[n].start_s, Horizon::NextLayer));
+        }
+        targets.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let times: Vec<f64> = targets.iter().map(|t| t.0).collect();
+        let probes = self.twin.r.probes.clone();
+        let read = |run: &ModelRun| -> Vec<Option<f64>> {
+            probes.iter().map(|&p| probe_k(run, p)).collect()
+        };
+        let ahead = self.twin.forecast(&times, &read)?;
+        let now = self.twin.read_members(&read);
+        let horizons = self.twin.settings.horizons_s.len();
+        for ((target, horizon), (members, open)) in targets.iter().zip(&ahead) {
+            for k in 0..probes.len() {
+                let pairs: Vec<(f64, f64)> = members
+                    .iter()
+                    .zip(&now)
+                    .filter_map(|(m, n)| Some((m[k]?, n[k]?)))
+                    .collect();
+                let (Some(open), false) = (open[k], pairs.len() < 2) else {
+                    continue;
+                };
+                let ahead: Vec<f64> = pairs.iter().map(|p| p.0).collect();
+                let (mean, sd) = (enkf::mean(&ahead), enkf::spread(&ahead));
+                let change = mean - enkf::mean(&pairs.iter().map(|p| p.1).collect::<Vec<_>>());
+                let class = k * (horizons + 1)
+                    + match horizon {
+                        Horizon::After(h) => self
+                            .twin
+                            .settings
+                            .horizons_s
+                            .iter()
+                            .position(|x| x == h)
+                            .unwrap_or(0),
+                        Horizon::NextLayer => horizons,
+                    };
+                let learned = &self.progress.learned[class];
+                let persistence = self.progress.last_seen[k];
+                let predicted = match persistence {
+                    Some(y0) => y0 + C + learned.predict(change),
+                    None => mean,
+                };
+                let band = 1.645 * (learned.theta[0].powi(2) * sd * sd + learned.error_var).sqrt();
+                self.progress.pending.push(self.progress.forecasts.len());
+                self.progress.forecasts.push(Forecast {
+                    made_at_s: at,
+                    target_t_s: *target,
+                    probe: k,
+                    horizon: *horizon,
+                    predicted_c: predicted - C,
+                    p05_c: predicted - band - C,
+                    p95_c: predicted + band - C,
+                    open_loop_c: open - C,
+                    persistence_c: persistence,
+                    measured_c: None,
+                    ensemble_c: mean - C,
+                    change_c: change,
+                    class,
+                });
+            }
+        }
+        match (layer, next, self.twin.settings.interpass_max_k) {
+            (Some(_), Some(n), Some(limit)) => Ok(self.judge(at, n, limit)?.into_iter().collect()),
+            _ => Ok(Vec::new()),
+        }
+    }
+
+    /// Layer `n`'s start judged from `at`: the hottest metal it is laid on, at the 95th
+    /// percentile over the members, against `limit` (K); an alarm with the dwell that brings
+    /// it under where it is over.
+    fn judge(&mut self, at: f64, n: usize, limit: f64) -> Result<Option<Alarm>, Error> {
+        let l = self.layers[n];
+        let r = self.twin.r;
+        let deps = &r.deps;
+        let beneath = |run: &ModelRun| -> f64 {
+            (l.first..=l.last)
+                .filter(|&i| deps[i].support.is_none_or(|s| s < run.laid()))
+                .map(|i| run.temperature_beneath(i))
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        let start = self.twin.forecast(&[l.start_s], &beneath)?;
+        let Some((members, _)) = start.first() else {
+            return Ok(None);
+        };
+        let p95 = quantile(members, 0.95);
+        if p95 <= limit {
+            return Ok(None);
+        }
+        let programmed = l.start_s - self.layers[n - 1].end_s;
+        let extra = self
+            .twin
+            .dwell_until(l.start_s, &beneath, limit, 5.0, 3600.0)?;
+        let alarm = Alarm {
+            made_at_s: at,
+            layer: n + 1,
+            criterion: "interpass".into(),
+            predicted_p95_c: p95 - C,
+            limit_c: limit - C,
+            programmed_dwell_s: programmed,
+            advised_dwell_s: extra.map(|e| programmed + e),
+        };
+        self.progress.alarms.push(alarm.clone());
+        Ok(Some(alarm))
+    }
+}

@@ -1,0 +1,491 @@
+//! The live twin (no IO): an ensemble of heat-model runs of a replay's program, each with its
+//! own values of the uncertain parameters, corrected from every probe reading as it arrives
+//! ([`enkf`]: parameters and the field around the sensor), and run ahead to forecast the probes
+//! and the next layer ([`follow`]). Beside it, the open loop: the scenario's values, corrected
+//! by nothing, the yardstick a forecast is held against.
+//!
+//! A member is a whole [`ModelRun`]: its field, its clock, its losses; its efficiency scales the
+//! heat of the deposits it lays ([`replay::advance_scaled`]). Every member lays the same
+//! program at the same times, so their active cells are the same cells, and a cell's index
+//! names the same place in each: what lets the filter read one variable across the members.
+
+pub mod enkf;
+pub mod follow;
+
+use super::Error;
+use super::calibrate::Range;
+use super::replay::{self, Parameter, Replay, Values};
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thermal::{HeatRun, ModelRun};
+
+/// How the twin filters and forecasts (`[live]`, scenarios/README.md), SI.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    pub ensemble: usize,
+    /// A reading's error: the sensor's and how well one cell stands for it, K.
+    pub reading_sd_k: f64,
+    /// Gaspari–Cohn half-width of a reading's reach into the field, m.
+    pub localisation_m: f64,
+    /// RTPS relaxation of the spread toward the prior's, 0–1.
+    pub relaxation: f64,
+    /// Least build time between two analyses, s.
+    pub assimilate_every_s: f64,
+    /// Least build time between two updates of the parameters, s.
+    pub parameters_every_s: f64,
+    pub forecast_every_s: f64,
+    /// Ascending.
+    pub horizons_s: Vec<f64>,
+    /// The interpass limit an alarm judges the next layer's start by, K.
+    pub interpass_max_k: Option<f64>,
+    pub seed: u64,
+}
+
+impl Default for Settings {
+    fn default() -> Settings {
+        Settings {
+            ensemble: 16,
+            reading_sd_k: 5.0,
+            localisation_m: 0.025,
+            relaxation: 0.5,
+            assimilate_every_s: 1.0,
+            parameters_every_s: 30.0,
+            forecast_every_s: 30.0,
+            horizons_s: vec![60.0, 300.0],
+            interpass_max_k: None,
+            seed: 1,
+        }
+    }
+}
+
+/// One uncertain parameter's prior: a normal of `mean` and `sd` cut to `range`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Uncertain {
+    pub parameter: Parameter,
+    pub range: Range,
+    pub mean: f64,
+    pub sd: f64,
+}
+
+impl Uncertain {
+    /// `[calibrate]`'s range as the prior: centred on the scenario's value, a quarter of the
+    /// range wide (so that the members span about the range).
+    pub fn from_range(parameter: Parameter, range: Range, value: f64) -> Uncertain {
+        Uncertain {
+            parameter,
+            range,
+            mean: value,
+            sd: (range.high - range.low) / 4.0,
+        }
+    }
+
+    fn unit(&self, x: f64) -> f64 {
+        (x - self.range.low) / (self.range.high - self.range.low)
+    }
+
+    fn value(&self, u: f64) -> f64 {
+        self.range.low + u.clamp(0.0, 1.0) * (self.range.high - self.range.low)
+    }
+
+    /// The filter's coordinate: the logit of the share of the range. A bound is never reached
+    /// (members clamped at it would all agree, and an ensemble that agrees learns nothing).
+    fn logit(&self, x: f64) -> f64 {
+        let u = self.unit(x).clamp(EDGE, 1.0 - EDGE);
+        (u / (1.0 - u)).ln()
+    }
+
+    fn of_logit(&self, z: f64) -> f64 {
+        self.value(1.0 / (1.0 + (-z).exp()))
+    }
+}
+
+/// Memory of the innovations' running variance per reading assimilated.
+const INNOVATION_MEMORY: f64 = 0.999;
+
+/// How near a bound a parameter may come, as a share of its range.
+const EDGE: f64 = 1e-3;
+
+/// The least spread the filter leaves a parameter, as a share of its prior spread: the
+/// parameters have no dynamics of their own, so without a floor their spread only shrinks
+/// and the ensemble stops learning them (what additive inflation of parameters is for).
+const PARAMETER_FLOOR: f64 = 0.2;
+
+/// One member: its parameters' values (in the order of the twin's priors) and its run.
+#[derive(Clone, Serialize, Deserialize)]
+struct Member {
+    values: Vec<f64>,
+    run: ModelRun,
+}
+
+/// What of the twin changes as it runs: its members, the open loop, the clock of its filter.
+#[derive(Clone, Serialize, Deserialize)]
+pub struct State {
+    members: Vec<Member>,
+    open_loop: ModelRun,
+    last_analysis_s: f64,
+    last_learned_s: f64,
+    /// Running variance of the innovations (K²): the model's error at the sensors.
+    innovation_var: f64,
+    /// Per parameter, the least spread of its logit ([`PARAMETER_FLOOR`] of the prior's).
+    floor: Vec<f64>,
+    pub analyses: usize,
+    /// Readings assimilated, and their innovations' sum of squares (K²).
+    pub assimilated: usize,
+    pub innovation_sq: f64,
+}
+
+/// The twin: a replay's program run by an ensemble.
+pub struct Twin<'a> {
+    r: &'a Replay,
+    pub settings: Settings,
+    pub priors: Vec<Uncertain>,
+    pub state: State,
+}
+
+/// The scenario's values with `priors`' parameters at `x`.
+fn values_of(r: &Replay, priors: &[Uncertain], x: &[f64]) -> Values {
+    let parameters: Vec<Parameter> = priors.iter().map(|u| u.parameter).collect();
+    r.values.with(&parameters, x)
+}
+
+/// Standard normal draws (Box–Muller on ChaCha's uniforms: the same on every platform).
+fn normals(rng: &mut rand_chacha::ChaCha8Rng, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|_| {
+            let (u1, u2): (f64, f64) = (rng.random(), rng.random());
+            (-2.0 * (1.0 - u1).ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        })
+        .collect()
+}
+
+/// The temperature `run` has at probe `p` (m), K: its voxel's, where one is active there.
+pub fn probe_k(run: &ModelRun, p: [f64; 3]) -> Option<f64> {
+    match run {
+        ModelRun::Voxel(v) => v.model().voxel_near(p).map(|c| v.model().temperature(c)),
+        ModelRun::ThinWall(_) => None,
+    }
+}
+
+impl<'a> Twin<'a> {
+    /// Draw the members from `priors` (seeded: the same members every run) and start them
+    /// and the open loop at the program's first arc. The replay's probes are read from the
+    /// members' fields, not traced (`r.probes` only says where).
+    pub fn new(
+        r: &'a Replay,
+        settings: Settings,
+        priors: Vec<Uncertain>,
+    ) -> Result<Twin<'a>, Error> {
+        if r.values.thermal.model != super::params::ThermalModel::Voxel {
+            return Err(Error::Measured(
+                "the twin corrects the voxel model's field; expected [thermal] model = \"voxel\""
+                    .into(),
+            ));
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed);
+        let quiet = Replay {
+            probes: Vec::new(),
+            ..r.clone()
+        };
+        let draws: Vec<Vec<f64>> = (0..settings.ensemble)
+            .map(|_| {
+                let z = normals(&mut rng, priors.len());
+                priors
+                    .iter()
+                    .zip(z)
+                    .map(|(u, z)| u.value(u.unit(u.mean) + z * u.sd / (u.range.high - u.range.low)))
+                    .collect()
+            })
+            .collect();
+        let members = draws
+            .into_par_iter()
+            .map(|values| {
+                let (_, run) = quiet.start(&values_of(r, &priors, &values))?;
+                Ok(Member { values, run })
+            })
+            .collect::<Result<Vec<Member>, Error>>()?;
+        let (_, open_loop) = quiet.start(&r.values)?;
+        let floor = priors
+            .iter()
+            .enumerate()
+            .map(|(k, u)| {
+                let z: Vec<f64> = members.iter().map(|m| u.logit(m.values[k])).collect();
+                PARAMETER_FLOOR * enkf::spread(&z)
+            })
+            .collect();
+        Ok(Twin {
+            r,
+            settings,
+            priors,
+            state: State {
+                members,
+                open_loop,
+                last_analysis_s: f64::NEG_INFINITY,
+                last_learned_s: f64::NEG_INFINITY,
+                innovation_var: 0.0,
+                floor,
+                analyses: 0,
+                assimilated: 0,
+                innovation_sq: 0.0,
+            },
+        })
+    }
+
+    /// The twin with a state kept earlier (a resumed run).
+    pub fn resume(
+        r: &'a Replay,
+        settings: Settings,
+        priors: Vec<Uncertain>,
+        state: State,
+    ) -> Twin<'a> {
+        Twin {
+            r,
+            settings,
+            priors,
+            state,
+        }
+    }
+
+    /// The build time the twin stands at, s.
+    pub fn now(&self) -> f64 {
+        self.state.open_loop.now()
+    }
+
+    /// Run the members and the open loop on to `t_s` (the program's deposits up to then).
+    pub fn advance(&mut self, t_s: f64) -> Result<(), Error> {
+        let (deps, eff) = (&self.r.deps, self.r.values.efficiency);
+        let efficiency = self
+            .priors
+            .iter()
+            .position(|u| u.parameter == Parameter::Efficiency);
+        self.state.members.par_iter_mut().try_for_each(|m| {
+            let scale = efficiency.map_or(1.0, |k| m.values[k] / eff);
+            replay::advance_scaled(&mut m.run, deps, t_s, scale, &mut |_| {})
+        })?;
+        replay::advance(&mut self.state.open_loop, deps, t_s)?;
+        Ok(())
+    }
+
+    /// Per prior parameter: the ensemble's mean and spread, in the parameter's unit.
+    pub fn parameters(&self) -> Vec<(Parameter, f64, f64)> {
+        (0..self.priors.len())
+            .map(|k| {
+                let x: Vec<f64> = self.state.members.iter().map(|m| m.values[k]).collect();
+                (self.priors[k].parameter, enkf::mean(&x), enkf::spread(&x))
+            })
+            .collect()
+    }
+
+    /// Assimilate the readings taken at `t_s` (probe, K), the ensemble run on to `t_s` first.
+    /// Readings closer than `assimilate_every_s` after the last analysis only move the clock.
+    /// Whether an analysis was made.
+    pub fn assimilate(&mut self, t_s: f64, readings: &[(usize, f64)]) -> Result<bool, Error> {
+        self.advance(t_s)?;
+        let every = self.settings.assimilate_every_s;
+        if readings.is_empty() || t_s < self.state.last_analysis_s + every {
+            return Ok(false);
+        }
+        self.state.last_analysis_s = t_s;
+        self.state.analyses += 1;
+        let learn = t_s >= self.state.last_learned_s + self.settings.parameters_every_s;
+        if learn {
+            self.state.last_learned_s = t_s;
+        }
+        // The parameters' logits, per parameter, per member.
+        let mut params: Vec<Vec<f64>> = (0..self.priors.len())
+            .map(|k| {
+                let u = &self.priors[k];
+                self.state
+                    .members
+                    .iter()
+                    .map(|m| u.logit(m.values[k]))
+                    .collect()
+            })
+            .collect();
+        let params_before: Vec<f64> = params.iter().map(|x| enkf::spread(x)).collect();
+        let (c, r2) = (
+            self.settings.localisation_m,
+            self.settings.reading_sd_k.powi(2),
+        );
+        let ambient = self.r.values.thermal.ambient_k;
+        for &(k, y) in readings {
+            let p = self.r.probes[k];
+            let ModelRun::Voxel(first) = &self.state.members[0].run else {
+                continue;
+            };
+            let Some(at) = first.model().voxel_near(p) else {
+                continue;
+            };
+            let region = first.model().voxels_within(p, 2.0 * c);
+            let read = |v: u32| -> Vec<f64> {
+                self.state
+                    .members
+                    .iter()
+                    .map(|m| match &m.run {
+                        ModelRun::Voxel(r) => r.model().temperature(v),
+                        ModelRun::ThinWall(_) => f64::NAN,
+                    })
+                    .collect()
+            };
+            let hx = read(at);
+            if learn {
+                // What the reading says of a parameter is weighed by the model's own error at
+                // the sensors (the innovations' running variance), not the thermocouple's:
+                // the field's error is no noise that averages out over readings.
+                let r_model = r2.max(self.state.innovation_var);
+                let ones = vec![1.0; params.len()];
+                enkf::assimilate(&mut params, &ones, &hx, y, r_model);
+            }
+            let mut field: Vec<Vec<f64>> = region.iter().map(|&(v, _)| read(v)).collect();
+            let before: Vec<f64> = field.iter().map(|x| enkf::spread(x)).collect();
+            let rho: Vec<f64> = region
+                .iter()
+                .map(|&(_, d)| enkf::gaspari_cohn(d, c))
+                .collect();
+            let Some(d) = enkf::assimilate(&mut field, &rho, &hx, y, r2) else {
+                continue;
+            };
+            self.state.assimilated += 1;
+            self.state.innovation_sq += d * d;
+            self.state.innovation_var = match self.state.assimilated {
+                1 => d * d,
+                _ => {
+                    INNOVATION_MEMORY * self.state.innovation_var
+                        + (1.0 - INNOVATION_MEMORY) * d * d
+                }
+            };
+            enkf::relax(&mut field, &before, self.settings.relaxation);
+            for (j, m) in self.state.members.iter_mut().enumerate() {
+                let ModelRun::Voxel(run) = &mut m.run else {
+                    continue;
+                };
+                for (x, &(v, _)) in field.iter().zip(&region) {
+                    // A correction never takes metal below the room it stands in, nor past
+                    // the tables' end.
+                    run.model_mut()
+                        .set_temperature(v, x[j].clamp(ambient - 50.0, 3999.0));
+                }
+            }
+        }
+        if !learn {
+            return Ok(true);
+        }
+        enkf::relax(&mut params, &params_before, self.settings.relaxation);
+        enkf::at_least(&mut params, &self.state.floor);
+        for (j, m) in self.state.members.iter_mut().enumerate() {
+            for (k, u) in self.priors.iter().enumerate() {
+                m.values[k] = u.of_logit(params[k][j]);
+            }
+            let v = values_of(self.r, &self.priors, &m.values);
+            let t = &v.thermal;
+            m.run
+                .set_losses(t.convection_w_m2k, t.emissivity, t.table_contact_w_m2k);
+        }
+        Ok(true)
+    }
+
+    /// `read` of every member as it stands.
+    pub fn read_members<T>(&self, read: &dyn Fn(&ModelRun) -> T) -> Vec<T> {
+        self.state.members.iter().map(|m| read(&m.run)).collect()
+    }
+
+    /// Run a copy of every member and of the open loop through `targets` (ascending, none
+    /// before now), reading `read` at each: per target, the members' values and the open
+    /// loop's. The twin itself does not move.
+    pub fn forecast<T: Send>(
+        &self,
+        targets: &[f64],
+        read: &(dyn Fn(&ModelRun) -> T + Sync),
+    ) -> Result<Vec<(Vec<T>, T)>, Error> {
+        let (deps, eff) = (&self.r.deps, self.r.values.efficiency);
+        let efficiency = self
+            .priors
+            .iter()
+            .position(|u| u.parameter == Parameter::Efficiency);
+        let runs: Vec<(ModelRun, f64)> = self
+            .state
+            .members
+            .iter()
+            .map(|m| (m.run.clone(), efficiency.map_or(1.0, |k| m.values[k] / eff)))
+            .chain([(self.state.open_loop.clone(), 1.0)])
+            .collect();
+        let per_run = runs
+            .into_par_iter()
+            .map(|(mut run, scale)| {
+                targets
+                    .iter()
+                    .map(|&t| {
+                        replay::advance_scaled(&mut run, deps, t, scale, &mut |_| {})?;
+                        Ok(read(&run))
+                    })
+                    .collect::<Result<Vec<T>, Error>>()
+            })
+            .collect::<Result<Vec<Vec<T>>, Error>>()?;
+        let mut per_run: Vec<std::vec::IntoIter<T>> =
+            per_run.into_iter().map(|v| v.into_iter()).collect();
+        let open = per_run.pop().expect("the open loop's run");
+        let mut members = per_run;
+        Ok(open
+            .map(|o| {
+                let m: Vec<T> = members
+                    .iter_mut()
+                    .map(|it| it.next().expect("a value per target"))
+                    .collect();
+                (m, o)
+            })
+            .collect())
+    }
+
+    /// The members cooled from `from_s` with the arc off, `step_s` at a time up to `max_s`,
+    /// until `read`'s 95th percentile over them is at most `limit`: the dwell that takes (s),
+    /// or None where `max_s` is not enough. The members are first run to `from_s` on copies.
+    pub fn dwell_until(
+        &self,
+        from_s: f64,
+        read: &(dyn Fn(&ModelRun) -> f64 + Sync),
+        limit: f64,
+        step_s: f64,
+        max_s: f64,
+    ) -> Result<Option<f64>, Error> {
+        let (deps, eff) = (&self.r.deps, self.r.values.efficiency);
+        let efficiency = self
+            .priors
+            .iter()
+            .position(|u| u.parameter == Parameter::Efficiency);
+        let mut runs: Vec<ModelRun> = self
+            .state
+            .members
+            .par_iter()
+            .map(|m| {
+                let mut run = m.run.clone();
+                let scale = efficiency.map_or(1.0, |k| m.values[k] / eff);
+                replay::advance_scaled(&mut run, deps, from_s, scale, &mut |_| {})?;
+                Ok(run)
+            })
+            .collect::<Result<Vec<ModelRun>, Error>>()?;
+        let mut waited = 0.0;
+        loop {
+            let values: Vec<f64> = runs.iter().map(read).collect();
+            if quantile(&values, 0.95) <= limit {
+                return Ok(Some(waited));
+            }
+            if waited >= max_s {
+                return Ok(None);
+            }
+            runs.par_iter_mut().try_for_each(|r| r.cool(step_s))?;
+            waited += step_s;
+        }
+    }
+}
+
+/// The q-quantile of `v` (linear between order statistics), NaN-free input.
+pub fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let x = q * (s.len() - 1) as f64;
+    let (i, f) = (x.floor() as usize, x - x.floor());
+    match s.get(i + 1) {
+        Some(&b) => s[i] + f * (b - s[i]),
+        None => s[i],
+    }
+}

@@ -1,0 +1,371 @@
+//! `waamtwin follow`: the live twin on files that grow while it runs. The measured builds are
+//! written line by line at a multiple of their pace (skipped, with a message, where
+//! `../shared/validation-data` is absent); the faults on a small wall whose readings the test
+//! makes up.
+
+use crate::{root, scratch};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Start `waamtwin follow SCENARIO -o OUT ARGS…` in the background.
+fn follow(scenario: &Path, out: &Path, args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+        .args([
+            "follow",
+            scenario.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .args(args)
+        .current_dir(root())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start waamtwin follow")
+}
+
+/// Wait at most `limit` for `child`; kill it past that (a failed test, not a hung one).
+fn finish(mut child: Child, limit: Duration) -> (bool, String) {
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let out = child.wait_with_output().unwrap();
+            let text = String::from_utf8_lossy(&out.stdout).to_string()
+                + &String::from_utf8_lossy(&out.stderr);
+            return (status.success(), text);
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let out = child.wait_with_output().unwrap();
+            panic!(
+                "follow still running after {limit:?}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Write `lines` to `path` one at a time, `every` apart (the logger), pausing `pause` after
+/// line `pause_at`.
+fn logger(
+    path: PathBuf,
+    lines: Vec<String>,
+    every: Duration,
+    pause: Option<(usize, Duration)>,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        let mut f = std::fs::File::create(&path).unwrap();
+        let start = Instant::now();
+        for (k, line) in lines.iter().enumerate() {
+            if let Some((at, d)) = pause
+                && k == at
+            {
+                std::thread::sleep(d);
+            }
+            // Written in two parts: a reader must wait for the line's end.
+            let (a, b) = line.split_at(line.len() / 2);
+            f.write_all(a.as_bytes()).unwrap();
+            f.flush().unwrap();
+            f.write_all(b.as_bytes()).unwrap();
+            f.write_all(b"\n").unwrap();
+            f.flush().unwrap();
+            let due = every * (k as u32 + 1);
+            if let Some(wait) = due.checked_sub(start.elapsed()) {
+                std::thread::sleep(wait);
+            }
+        }
+    })
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// A copy of `scenario` with its probe file at `probes` and every other relative path made
+/// absolute, and `extra` appended to its `[live]` section (added where it has none).
+fn scenario_with(scenario: &Path, probes: &Path, live: &str, at: &Path) {
+    let base = scenario.parent().unwrap();
+    let text = std::fs::read_to_string(scenario).unwrap();
+    let mut out = String::new();
+    let mut section = String::new();
+    for line in text.lines() {
+        let t = line.trim_start();
+        if t.starts_with('[') {
+            section = t.to_string();
+        }
+        let line = match t.split_once("file = \"") {
+            Some((_, rest)) if t.starts_with("file") => {
+                let file = rest.trim_end_matches('"');
+                let path = match section.as_str() {
+                    "[probes]" => probes.to_path_buf(),
+                    _ => base.join(file),
+                };
+                format!("file = {:?}", path.to_str().unwrap())
+            }
+            _ => match t.split_once("_table = \"") {
+                Some((key, rest)) => {
+                    let file = rest.trim_end_matches('"');
+                    format!("{key}_table = {:?}", base.join(file).to_str().unwrap())
+                }
+                None => line.to_string(),
+            },
+        };
+        out.push_str(&line);
+        out.push('\n');
+        if t == "[live]" {
+            out.push_str(live);
+            out.push('\n');
+        }
+    }
+    if !text.contains("\n[live]") {
+        out.push_str("\n[live]\n");
+        out.push_str(live);
+        out.push('\n');
+    }
+    std::fs::write(at, out).unwrap();
+}
+
+fn validation_file(path: &str) -> Option<PathBuf> {
+    let p = root().join("../shared/validation-data").join(path);
+    if p.is_file() {
+        Some(p)
+    } else {
+        eprintln!("skipped: {} is absent", p.display());
+        None
+    }
+}
+
+/// One horizon's scores over all probes.
+fn scores(v: &serde_json::Value, horizon: &str) -> serde_json::Value {
+    v["scores"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["horizon"] == horizon)
+        .unwrap_or_else(|| panic!("no {horizon} in {}", v["scores"]))["all"]
+        .clone()
+}
+
+/// The ORNL pad as a live build: its logger file written line by line at 20× its pace while
+/// `follow` runs, the event series the program, an interpass limit of 150 °C. The twin's
+/// 60 s forecasts at most half the open loop's error, the band holding 70–99 % of the
+/// readings, forecasts made from the readings up to their moment and no later, and alarms at
+/// the layers the forecast puts over the limit.
+#[test]
+fn ornl_pad_followed_live_at_twenty_times_its_pace() {
+    let Some(log) = validation_file("ornl_srp_waam_calibration/srp4_calibration_log.csv") else {
+        return;
+    };
+    let dir = scratch("follow_ornl");
+    let probes = dir.join("log.csv");
+    let scenario = dir.join("ornl_live.toml");
+    scenario_with(
+        &root().join("scenarios/ornl_srp_pad.toml"),
+        &probes,
+        "interpass_max_c = 150.0",
+        &scenario,
+    );
+    let lines: Vec<String> = std::fs::read_to_string(&log)
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect();
+    let writer = logger(probes, lines.clone(), Duration::from_millis(50), None);
+    let out = dir.join("out");
+    let child = follow(&scenario, &out, &["--until-idle-s", "20"]);
+    writer.join().unwrap();
+    let (ok, text) = finish(child, Duration::from_secs(900));
+    assert!(ok, "{text}");
+    let v = json(&out.join("follow.json"));
+    eprintln!(
+        "{text}\n{}",
+        serde_json::to_string_pretty(&v["scores"]).unwrap()
+    );
+    assert_eq!(v["rows"], 3695, "{}", v["refused"]);
+    let s60 = scores(&v, "60");
+    let (twin, open) = (
+        s60["assimilated_rms_c"].as_f64().unwrap(),
+        s60["open_loop_rms_c"].as_f64().unwrap(),
+    );
+    assert!(
+        twin <= 0.5 * open,
+        "60 s: twin {twin:.1} °C, open loop {open:.1} °C"
+    );
+    for h in ["60", "300", "next_layer"] {
+        let c = scores(&v, h)["band_coverage"].as_f64().unwrap();
+        assert!(
+            (0.7..=0.99).contains(&c),
+            "{h}: band holds {c:.2} of the readings"
+        );
+    }
+    // Persistence is the last reading at or before the forecast's moment: no later reading
+    // was used, though the file ran ahead of the twin.
+    let rows: Vec<Vec<f64>> = lines[1..]
+        .iter()
+        .map(|l| {
+            l.split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    let (header, forecasts) = crate::read_csv(&out.join("forecasts.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (probe, made, persistence) = (col("probe"), col("made_at_s"), col("persistence_c"));
+    let mut checked = 0;
+    for f in forecasts.iter().filter(|f| f[probe] == "tc3") {
+        let made: f64 = f[made].parse().unwrap();
+        let last = rows.iter().rev().find(|r| r[0] <= made).unwrap();
+        let reading = last[4];
+        let carried: f64 = f[persistence].parse().unwrap();
+        assert!((carried - reading).abs() < 0.01, "{f:?} against {reading}");
+        checked += 1;
+    }
+    assert!(checked > 300, "{checked} forecasts of tc3");
+    let (header, alarms) = crate::read_csv(&out.join("alarms.csv"));
+    let limit = header.iter().position(|h| h == "limit_c").unwrap();
+    assert!(alarms.iter().all(|a| a[limit] == "150.00"), "{alarms:?}");
+    assert!(
+        text.contains("alarm at t =") == !alarms.is_empty(),
+        "{text}"
+    );
+}
+
+/// The small wall the faults are tried on: six tracks of 40 mm, three thermocouples beside it
+/// on the plate, readings every 0.5 s made up (a slow rise), 160 s in all.
+fn small_wall(dir: &Path, live: &str) -> (PathBuf, Vec<String>) {
+    let mut path = String::from("t_s,x_mm,y_mm,z_mm,on\n");
+    for k in 0..6 {
+        let (t, z) = (20.0 * k as f64, 1.5 * (k + 1) as f64);
+        path += &format!("{t},-20,0,{z},0\n{},20,0,{z},1\n", t + 8.0);
+    }
+    std::fs::write(dir.join("path.csv"), path).unwrap();
+    let scenario = format!(
+        "[toolpath]\nfile = \"path.csv\"\ndeposit_mm = 2.0\n\
+         [process]\npower_w = 2000.0\nefficiency = 0.8\nbead_width_mm = 4.0\nlayer_height_mm = 1.5\n\
+         [material]\npreset = \"G3Si\"\n\
+         [thermal]\nmodel = \"voxel\"\nvoxel_mm = 2.0\nplate_mm = [80.0, 40.0, 6.0]\n\
+         [probes]\nfile = \"log.csv\"\nunit = \"C\"\npoints = [\n\
+         {{ name = \"a\", column = 1, x_mm = -10.0, y_mm = 8.0, z_mm = 0.0 }},\n\
+         {{ name = \"b\", column = 2, x_mm = 0.0, y_mm = 8.0, z_mm = 0.0 }},\n\
+         {{ name = \"c\", column = 3, x_mm = 10.0, y_mm = 8.0, z_mm = 0.0 }},\n]\n\
+         [calibrate]\nparameters = [{{ name = \"efficiency\", low = 0.5, high = 0.95 }}]\n\
+         [live]\nensemble = 6\nforecast_every_s = 10.0\nforecast_horizons_s = [10.0, 30.0]\n{live}\n"
+    );
+    std::fs::write(dir.join("wall.toml"), scenario).unwrap();
+    let mut lines = vec!["t_s,a_c,b_c,c_c".to_string()];
+    for j in 0..=320 {
+        let t = 0.5 * j as f64;
+        let v = |k: f64| 25.0 + 60.0 * (1.0 - (-t / (80.0 + 10.0 * k)).exp());
+        lines.push(format!("{t},{:.2},{:.2},{:.2}", v(0.0), v(1.0), v(2.0)));
+    }
+    (dir.join("wall.toml"), lines)
+}
+
+/// A garbage line and a reading that goes back in time are named, counted and skipped; the
+/// rest of the build is followed.
+#[test]
+fn a_garbage_line_and_a_reading_back_in_time_are_named_and_skipped() {
+    let dir = scratch("follow_garbage");
+    let (scenario, mut lines) = small_wall(&dir, "");
+    lines.insert(100, "49.7,12,x,14".into());
+    lines.insert(150, "3.0,30,30,30".into());
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let out = dir.join("out");
+    let (ok, text) = finish(
+        follow(&scenario, &out, &["--until-idle-s", "2"]),
+        Duration::from_secs(300),
+    );
+    assert!(ok, "{text}");
+    assert!(text.contains("line 101: column 2 = \"x\""), "{text}");
+    let v = json(&out.join("follow.json"));
+    assert_eq!(v["refused"]["malformed"], 1, "{}", v["refused"]);
+    assert_eq!(v["refused"]["back_in_time"], 1, "{}", v["refused"]);
+    // Up to the program's end (108 s) and the longest horizon (30 s): 0–138 s.
+    assert_eq!(v["rows"], 277);
+    assert!(v["forecasts"].as_u64().unwrap() > 0);
+}
+
+/// The logger stops for 30 s mid-build: follow says the source stalled, keeps its state, and
+/// follows on when the readings return.
+#[test]
+fn a_source_paused_for_thirty_seconds_is_followed_on() {
+    let dir = scratch("follow_pause");
+    let (scenario, lines) = small_wall(&dir, "stall_s = 10.0");
+    let writer = logger(
+        dir.join("log.csv"),
+        lines,
+        Duration::from_millis(10),
+        Some((150, Duration::from_secs(30))),
+    );
+    let out = dir.join("out");
+    let child = follow(&scenario, &out, &["--until-idle-s", "60"]);
+    writer.join().unwrap();
+    let (ok, text) = finish(child, Duration::from_secs(300));
+    assert!(ok, "{text}");
+    assert!(text.contains("no new reading for"), "{text}");
+    assert!(text.contains("readings again after"), "{text}");
+    let v = json(&out.join("follow.json"));
+    assert_eq!(v["rows"], 277);
+    let stalls = v["stalls"].as_array().unwrap();
+    assert_eq!(stalls.len(), 1, "{stalls:?}");
+    let waited = stalls[0]["wall_s"].as_f64().unwrap();
+    assert!((25.0..45.0).contains(&waited), "{waited} s");
+}
+
+/// `follow` killed part-way while the file grows, then `--resume`d: its forecasts.csv,
+/// assimilation.csv and alarms.csv are those of a run that was not interrupted.
+#[test]
+fn follow_killed_then_resumed_writes_what_one_run_does() {
+    let dir = scratch("follow_resume");
+    let (scenario, lines) = small_wall(&dir, "interpass_max_c = 100.0");
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let once = dir.join("once");
+    let (ok, text) = finish(
+        follow(&scenario, &once, &["--until-idle-s", "2"]),
+        Duration::from_secs(300),
+    );
+    assert!(ok, "{text}");
+    // Now the file grows while the twin runs, and the twin is killed after a checkpoint.
+    let growing = dir.join("growing");
+    std::fs::create_dir_all(&growing).unwrap();
+    let (scenario2, _) = small_wall(&growing, "interpass_max_c = 100.0");
+    let writer = logger(
+        growing.join("log.csv"),
+        lines,
+        Duration::from_millis(20),
+        None,
+    );
+    let out = growing.join("out");
+    let mut child = follow(&scenario2, &out, &["--checkpoint-every-s", "0"]);
+    let start = Instant::now();
+    let kept = loop {
+        let kept = std::fs::read_dir(out.join("checkpoint"))
+            .map(|d| d.count())
+            .unwrap_or(0);
+        if kept > 0 && start.elapsed() > Duration::from_secs(2) {
+            break true;
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            break false;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    child.kill().unwrap();
+    let _ = child.wait();
+    assert!(kept, "no checkpoint within a minute");
+    writer.join().unwrap();
+    let (ok, text) = finish(
+        follow(&scenario2, &out, &["--resume", "--until-idle-s", "2"]),
+        Duration::from_secs(300),
+    );
+    assert!(ok, "{text}");
+    for f in ["forecasts.csv", "assimilation.csv", "alarms.csv"] {
+        let a = std::fs::read_to_string(once.join(f)).unwrap();
+        let b = std::fs::read_to_string(out.join(f)).unwrap();
+        assert!(a == b, "{f} differs after the resume");
+        assert!(a.lines().count() > 1 || f == "alarms.csv", "{f} is empty");
+    }
+}
