@@ -646,3 +646,77 @@ fn a_quenched_run_is_at_ambient_and_carries_on_cooler() {
         );
     }
 }
+
+/// Losses set mid-run act from then on, on both models: until then the runs are the same run;
+/// after, the one losing heat ten times faster is nowhere warmer and cooler in all, and its
+/// ledger still balances.
+#[test]
+fn losses_set_mid_run_act_from_then_on() {
+    let deps = schedule();
+    for model in models(Material::g3si()) {
+        let mut run = model.start(&deps).unwrap();
+        for i in 0..40 {
+            run.deposit(i, 0.0).unwrap();
+        }
+        let mut lossy = run.clone();
+        lossy.set_losses(150.0, 0.9, 1000.0);
+        for r in [&mut run, &mut lossy] {
+            r.cool(30.0).unwrap();
+        }
+        let (mut sum_a, mut sum_b) = (0.0, 0.0);
+        for i in 0..40 {
+            let (a, b) = (run.temperature_of(i), lossy.temperature_of(i));
+            assert!(
+                b <= a + 1e-9,
+                "{}: deposit {i} {b} K against {a} K",
+                model.name()
+            );
+            (sum_a, sum_b) = (sum_a + a - 293.15, sum_b + b - 293.15);
+        }
+        // Metal back at ambient either way reads the same; the rest is cooler.
+        assert!(
+            sum_b < 0.9 * sum_a,
+            "{}: {sum_b} against {sum_a} K",
+            model.name()
+        );
+        let r = lossy.finish();
+        assert!(
+            r.balance_error.abs() < 1e-6,
+            "{}: {}",
+            model.name(),
+            r.balance_error
+        );
+    }
+}
+
+/// A voxel set to a temperature by a data assimilation reads it at once, its neighbours feel
+/// it on the next step, and the heat it took is booked (`assimilated`): the balance closes.
+#[test]
+fn a_voxel_set_by_assimilation_is_booked_and_felt() {
+    let deps = schedule();
+    let [_, voxel] = models(Material::g3si());
+    let mut run = voxel.start(&deps).unwrap();
+    for i in 0..40 {
+        run.deposit(i, 0.0).unwrap();
+    }
+    let thermal::ModelRun::Voxel(v) = &mut run else {
+        panic!("the second model is the voxel one");
+    };
+    let at = deps[20].position;
+    let near = v.model().voxels_within(at, 3e-3);
+    assert!(
+        !near.is_empty() && near.iter().all(|&(_, d)| d <= 3e-3),
+        "{near:?}"
+    );
+    let (centre, _) =
+        near.iter().copied().fold(
+            (0, f64::INFINITY),
+            |b, (c, d)| if d < b.1 { (c, d) } else { b },
+        );
+    v.model_mut().set_temperature(centre, 1500.0);
+    assert!((v.model().temperature(centre) - 1500.0).abs() < 1.0);
+    run.cool(5.0).unwrap();
+    let r = run.finish();
+    assert!(r.ledger.assimilated != 0.0);
+    assert!(r.balance_error.abs() < 1e-6, "{}", r.balance_error);
+}

@@ -21,7 +21,7 @@ use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{BELOW_AMBIENT_K, Parameter, Replay};
 use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, Progress};
 use crate::pipeline::twin::{Twin, Uncertain};
-use crate::scenario::replay::{Live, ReplayScenario};
+use crate::scenario::replay::{Live, Probes, ReplayScenario};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write;
@@ -229,56 +229,32 @@ pub fn run(
             last_new = Instant::now();
         }
         let done = |f: &Follower| f.data_s().is_some_and(|d| d >= program_end + longest);
-        for (n, text) in look.lines {
+        for (mark, text) in look.lines {
             // Rows past the end are left unread: where a run ends does not hang on how the
             // file was cut into looks.
             if done(&follower) {
                 break;
             }
-            let (t, mut values) = match probes::line(&text, n, p.time_column, &columns) {
-                Ok(Line::Nothing) => continue,
-                Ok(Line::Row(t, v)) => (t, v),
-                Err(e) => {
-                    let line = format!("{} line {n}: {e}", p.file.display());
-                    eprintln!("follow: skipped {line}");
-                    counters.malformed += 1;
-                    if counters.malformed_lines.len() < 20 {
-                        counters.malformed_lines.push(line);
-                    }
-                    continue;
-                }
-            };
-            if !counters.restarts.is_empty() && follower.data_s().is_some_and(|d| t <= d) {
-                counters.reread += 1;
-                continue;
-            }
-            in_celsius(&mut values, p.kelvin, s.thermal.ambient_k, &mut counters);
-            let before = Instant::now();
-            let alarms = follower
-                .feed(t, &values)
-                .map_err(|e| Error::from(e).context(format!("follow at t = {t} s")))?;
-            for a in &alarms {
-                eprintln!("follow: {}", a.line());
-            }
-            counters.busy_s += before.elapsed().as_secs_f64();
-            counters.first_data_s.get_or_insert(t);
-            let lag = read_at.elapsed().as_secs_f64();
-            counters.lag_max_s = counters.lag_max_s.max(lag);
-            counters.lag_sum_s += lag;
-            counters.lag_n += 1;
-            if lag > BEHIND_S && counters.behind_at_s.len() < 1000 {
-                counters.behind_at_s.push(t);
-            }
-        }
-        let mark = tail.mark.clone();
-        ck.save_if_due("follow", || {
-            (follower.checkpoint().clone(), mark, counters.clone())
-        });
-        if last_rewrite.elapsed() >= REWRITE {
-            write(
-                &mut dir, &follower, &names, &priors, &counters, &clock, "running",
+            feed(
+                &mut follower,
+                &mut counters,
+                &p,
+                &columns,
+                &s,
+                (mark.lines, &text),
+                read_at,
             )?;
-            last_rewrite = Instant::now();
+            // Kept after a row, with where the file is read to after it: a resumed run reads
+            // on from the next row whatever the looks were.
+            ck.save_if_due("follow", || {
+                (follower.checkpoint().clone(), mark, counters.clone())
+            });
+            if last_rewrite.elapsed() >= REWRITE {
+                write(
+                    &mut dir, &follower, &names, &priors, &counters, &clock, "running",
+                )?;
+                last_rewrite = Instant::now();
+            }
         }
         if done(&follower) {
             break "the data reached the program's end and the longest horizon";
@@ -309,6 +285,54 @@ pub fn run(
     dir.finish("follow", s.to_json())?;
     folder.close()?;
     Ok(summary(&follower, &counters, ending))
+}
+
+/// Read line `n` of the probe file and feed its row (a line that does not read, or a row
+/// read again after the file restarted, is counted and skipped).
+fn feed(
+    follower: &mut Follower,
+    counters: &mut Counters,
+    p: &Probes,
+    columns: &[usize],
+    s: &ReplayScenario,
+    (n, text): (usize, &str),
+    read_at: Instant,
+) -> Result<()> {
+    let (t, mut values) = match probes::line(text, n, p.time_column, columns) {
+        Ok(Line::Nothing) => return Ok(()),
+        Ok(Line::Row(t, v)) => (t, v),
+        Err(e) => {
+            let line = format!("{} line {n}: {e}", p.file.display());
+            eprintln!("follow: skipped {line}");
+            counters.malformed += 1;
+            if counters.malformed_lines.len() < 20 {
+                counters.malformed_lines.push(line);
+            }
+            return Ok(());
+        }
+    };
+    if !counters.restarts.is_empty() && follower.data_s().is_some_and(|d| t <= d) {
+        counters.reread += 1;
+        return Ok(());
+    }
+    in_celsius(&mut values, p.kelvin, s.thermal.ambient_k, counters);
+    let before = Instant::now();
+    let alarms = follower
+        .feed(t, &values)
+        .map_err(|e| Error::from(e).context(format!("follow at t = {t} s")))?;
+    for a in &alarms {
+        eprintln!("follow: {}", a.line());
+    }
+    counters.busy_s += before.elapsed().as_secs_f64();
+    counters.first_data_s.get_or_insert(t);
+    let lag = read_at.elapsed().as_secs_f64();
+    counters.lag_max_s = counters.lag_max_s.max(lag);
+    counters.lag_sum_s += lag;
+    counters.lag_n += 1;
+    if lag > BEHIND_S && counters.behind_at_s.len() < 1000 {
+        counters.behind_at_s.push(t);
+    }
+    Ok(())
 }
 
 /// Per horizon, over every probe: the forecasts' RMS against what was measured.

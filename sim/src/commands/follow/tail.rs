@@ -25,8 +25,9 @@ pub struct Mark {
 /// What one look found.
 #[derive(Debug, Default, PartialEq)]
 pub struct Look {
-    /// Whole lines with their numbers (1-based).
-    pub lines: Vec<(usize, String)>,
+    /// Whole lines: each with where the file is read to once it is (a checkpoint's mark
+    /// after it) and its text.
+    pub lines: Vec<(Mark, String)>,
     /// The file shrank or was replaced since the last look: read again from its start.
     pub restarted: Option<String>,
 }
@@ -99,17 +100,14 @@ impl Tail {
             None => return Ok(out),
         };
         let whole: Vec<u8> = self.partial.drain(..=end).collect();
-        self.mark.offset += whole.len() as u64;
         // `whole` ends with a newline (or is cut at `LONGEST`): its last byte ends the line.
-        let pieces = whole[..whole.len() - 1].split(|&b| b == b'\n');
-        for (k, line) in pieces.enumerate() {
+        for line in whole[..whole.len() - 1].split(|&b| b == b'\n') {
+            self.mark.offset += line.len() as u64 + 1;
+            self.mark.lines += 1;
             let text = String::from_utf8_lossy(line);
-            out.lines.push((
-                self.mark.lines + k + 1,
-                text.trim_end_matches('\r').to_string(),
-            ));
+            out.lines
+                .push((self.mark.clone(), text.trim_end_matches('\r').to_string()));
         }
-        self.mark.lines += out.lines.len();
         Ok(out)
     }
 }
@@ -128,20 +126,24 @@ mod tests {
         let path = dir.join("log.csv");
         std::fs::write(&path, "t,a\n1,2").unwrap();
         let mut t = Tail::new(&path, Mark::default());
+        let text = |l: &Look| -> Vec<(usize, String)> {
+            l.lines.iter().map(|(m, t)| (m.lines, t.clone())).collect()
+        };
         let l = t.look().unwrap();
-        assert_eq!(l.lines, vec![(1, "t,a".to_string())]);
+        assert_eq!(text(&l), vec![(1, "t,a".to_string())]);
+        assert_eq!(l.lines[0].0.offset, 4);
         let mut f = std::fs::OpenOptions::new()
             .append(true)
             .open(&path)
             .unwrap();
         f.write_all(b"0\n2,30\n").unwrap();
         let l = t.look().unwrap();
-        assert_eq!(l.lines, vec![(2, "1,20".into()), (3, "2,30".into())]);
+        assert_eq!(text(&l), vec![(2, "1,20".into()), (3, "2,30".into())]);
         assert_eq!(t.look().unwrap(), Look::default());
         std::fs::write(&path, "5,1\n").unwrap();
         let l = t.look().unwrap();
         assert!(l.restarted.is_some(), "{l:?}");
-        assert_eq!(l.lines, vec![(1, "5,1".to_string())]);
+        assert_eq!(text(&l), vec![(1, "5,1".to_string())]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

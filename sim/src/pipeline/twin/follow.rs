@@ -84,9 +84,7 @@ pub struct Forecast {
     pub target_t_s: f64,
     pub probe: usize,
     pub horizon: Horizon,
-    /// The twin's forecast (the module's doc), and its 5–95 % band: the members' spread
-    /// weighed as the change is and the error of the verified forecasts together, as a normal
-    /// (± 1.645·√(w²σ²_members + σ²_verified)).
+    /// The twin's forecast (the module's doc), and its 5–95 % band ([`Learned::band`]).
     pub predicted_c: f64,
     pub p05_c: f64,
     pub p95_c: f64,
@@ -103,6 +101,15 @@ pub struct Forecast {
     class: usize,
 }
 
+/// √ of a forecast's lead in minutes: what its error is scaled by ([`Learned::band`]).
+fn lead_scale(f: &Forecast) -> f64 {
+    ((f.target_t_s - f.made_at_s) / 60.0).max(1e-3).sqrt()
+}
+
+/// Verified errors the band is cut from, and the fewest it is cut from.
+const KEPT_ERRORS: usize = 50;
+const FEWEST_ERRORS: usize = 10;
+
 /// The most a learned line weighs the ensemble's change by.
 const W_MAX: f64 = 1.5;
 
@@ -117,6 +124,9 @@ struct Learned {
     p: [[f64; 2]; 2],
     error_var: f64,
     verified: usize,
+    /// The last `KEPT_ERRORS` errors before each update, measured − forecast, °C: what the
+    /// band is cut from once there are `FEWEST_ERRORS` of them.
+    errors: std::collections::VecDeque<f64>,
 }
 
 impl Learned {
@@ -129,14 +139,37 @@ impl Learned {
             p: [[1.0, 0.0], [0.0, 1.0]],
             error_var: sd_reading * sd_reading,
             verified: 0,
+            errors: std::collections::VecDeque::new(),
         }
+    }
+
+    /// The 5–95 % band about a forecast, °C below and above it: the wider, on each side, of a
+    /// normal of the members' spread `sd` weighed as the change is and the expected error, and
+    /// the verified errors' own quantiles where there are `FEWEST_ERRORS` of them
+    /// (split-conformal, Vovk et al. 2005: skewed errors make a skewed band).
+    /// The errors are kept divided by `scale` (√ of the lead time in minutes: a next layer's
+    /// start may lie a minute ahead or fifteen, and a diffusing error grows as √t) and the band
+    /// multiplied back by it.
+    fn band(&self, sd: f64, scale: f64) -> (f64, f64) {
+        let half =
+            1.645 * (self.theta[0].powi(2) * sd * sd + self.error_var * scale * scale).sqrt();
+        if self.errors.len() < FEWEST_ERRORS {
+            return (half, half);
+        }
+        let e: Vec<f64> = self.errors.iter().copied().collect();
+        (
+            half.max(-scale * quantile(&e, 0.05)),
+            half.max(scale * quantile(&e, 0.95)),
+        )
     }
 
     fn predict(&self, x: f64) -> f64 {
         self.theta[0] * x + self.theta[1]
     }
 
-    fn learn(&mut self, x: f64, y: f64) {
+    /// Learn from a verified forecast: the ensemble's change `x`, the measured one `y`, the
+    /// lead's `scale` ([`Learned::band`]).
+    fn learn(&mut self, x: f64, y: f64, scale: f64) {
         let e = y - self.predict(x);
         let px = [
             self.p[0][0] * x + self.p[0][1],
@@ -157,8 +190,13 @@ impl Learned {
                 self.p[i][j] = (self.p[i][j] - k[i] * px[j]) / FORGET;
             }
         }
-        self.error_var = FORGET * self.error_var + (1.0 - FORGET) * e * e;
+        let scaled = e / scale;
+        self.error_var = FORGET * self.error_var + (1.0 - FORGET) * scaled * scaled;
         self.verified += 1;
+        if self.errors.len() == KEPT_ERRORS {
+            self.errors.pop_front();
+        }
+        self.errors.push_back(scaled);
     }
 }
 
@@ -368,7 +406,7 @@ impl<'a> Follower<'a> {
                 (None, None) => None,
             };
             if let (Some(m), Some(y0)) = (f.measured_c, f.persistence_c) {
-                learned[f.class].learn(f.change_c, m - y0);
+                learned[f.class].learn(f.change_c, m - y0, lead_scale(f));
             }
             false
         });
@@ -427,7 +465,8 @@ impl<'a> Follower<'a> {
                     Some(y0) => y0 + C + learned.predict(change),
                     None => mean,
                 };
-                let band = 1.645 * (learned.theta[0].powi(2) * sd * sd + learned.error_var).sqrt();
+                let scale = ((target - at) / 60.0).max(1e-3).sqrt();
+                let (below, above) = learned.band(sd, scale);
                 self.progress.pending.push(self.progress.forecasts.len());
                 self.progress.forecasts.push(Forecast {
                     made_at_s: at,
@@ -435,8 +474,8 @@ impl<'a> Follower<'a> {
                     probe: k,
                     horizon: *horizon,
                     predicted_c: predicted - C,
-                    p05_c: predicted - band - C,
-                    p95_c: predicted + band - C,
+                    p05_c: predicted - below - C,
+                    p95_c: predicted + above - C,
                     open_loop_c: open - C,
                     persistence_c: persistence,
                     measured_c: None,
@@ -488,5 +527,67 @@ impl<'a> Follower<'a> {
         };
         self.progress.alarms.push(alarm.clone());
         Ok(Some(alarm))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A line y = 0.4·x + 2 with noise: the learned weight and intercept come near it, the
+    /// weight is kept within [0, W_MAX], and the band cut from the verified errors holds about
+    /// 90 % of the next errors.
+    #[test]
+    fn a_learned_line_finds_the_weight_and_its_band_holds() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut l = Learned::new(1.0);
+        let (mut inside, mut n) = (0, 0);
+        for k in 0..400 {
+            let x: f64 = rng.random_range(-10.0..10.0);
+            let y = 0.4 * x + 2.0 + rng.random_range(-1.0..1.0);
+            if k >= 100 {
+                let (below, above) = l.band(0.0, 1.0);
+                let f = l.predict(x);
+                inside += usize::from(f - below <= y && y <= f + above);
+                n += 1;
+            }
+            l.learn(x, y, 1.0);
+        }
+        assert!((l.theta[0] - 0.4).abs() < 0.05, "{:?}", l.theta);
+        assert!((l.theta[1] - 2.0).abs() < 0.3, "{:?}", l.theta);
+        let share = inside as f64 / n as f64;
+        assert!((0.8..=0.97).contains(&share), "{share}");
+        let mut wild = Learned::new(1.0);
+        wild.learn(1.0, 500.0, 1.0);
+        assert!(wild.theta[0] <= W_MAX);
+    }
+
+    /// Two tracks with travel between them are two layers, each from its first arc to its
+    /// last deposit's end.
+    #[test]
+    fn tracks_after_travel_are_layers() {
+        let d = |t: f64, x: f64, start: bool| Deposit {
+            position: [x, 0.0, 0.0],
+            time: t,
+            arc_time: 1.0,
+            heat: 100.0,
+            width: 4e-3,
+            height: 1e-3,
+            axis: [0.0, 0.0, 1.0],
+            support: None,
+            start: start.then_some([x - 1e-3, 0.0, 0.0]),
+            drop: None,
+        };
+        let deps = [
+            d(1.0, 0.0, true),
+            d(2.0, 1e-3, false),
+            d(11.0, 0.0, true),
+            d(12.0, 1e-3, false),
+        ];
+        let l = layers(&deps);
+        assert_eq!(l.len(), 2);
+        assert_eq!((l[0].first, l[0].last, l[1].first, l[1].last), (0, 1, 2, 3));
+        assert_eq!((l[0].start_s, l[0].end_s, l[1].start_s), (0.0, 2.0, 10.0));
     }
 }
