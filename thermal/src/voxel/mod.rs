@@ -472,7 +472,7 @@ impl VoxelModel {
                     if inside_len
                         && s_up <= -sink - eps
                         && s_up > -below - eps
-                        && s_across.abs() <= d.width / 2.0
+                        && across_bead(s_across, d.width, dx)
                     {
                         let before = self.cell.len();
                         let temp = self.settings.deposit_temperature;
@@ -1326,6 +1326,19 @@ impl HeatRun for VoxelRun {
             },
         }
     }
+}
+
+/// Whether a voxel centre `s_across` (m) off a bead's centre line lies across the bead of
+/// `width` on voxels of `dx`: within W/2. A bead no wider than a voxel takes the one column of
+/// centres within half a voxel, half-open so that a centre line on a cell boundary takes one
+/// column, not none (at 2 mm voxels the GAMMA wall's 2 mm bead had its centres at exactly ±W/2,
+/// which rounding dropped both ways, and the wall was never laid) nor two.
+fn across_bead(s_across: f64, width: f64, dx: f64) -> bool {
+    if width > dx {
+        return s_across.abs() <= width / 2.0;
+    }
+    let (half, eps) = (dx / 2.0, 1e-6 * dx);
+    s_across > -half + eps && s_across <= half + eps
 }
 
 /// Where each deposit's metal settles. The path point is where the torch is; the molten bead

@@ -94,9 +94,11 @@ pub struct Forecast {
     pub persistence_c: Option<f64>,
     /// What the probe read at `target_t_s` (linear between the rows around it), once read.
     pub measured_c: Option<f64>,
-    /// The ensemble's mean at the target, and the change it forecast from `made_at_s`.
+    /// The ensemble's mean at the target, the change it forecast from `made_at_s`, and its
+    /// mean less the reading then.
     pub ensemble_c: f64,
     change_c: f64,
+    misfit_c: f64,
     /// Which learned line this forecast uses and teaches.
     class: usize,
 }
@@ -110,18 +112,25 @@ fn lead_scale(f: &Forecast) -> f64 {
 const KEPT_ERRORS: usize = 50;
 const FEWEST_ERRORS: usize = 10;
 
-/// The most a learned line weighs the ensemble's change by.
+/// The most a learned line weighs the ensemble's change, or its misfit, by.
 const W_MAX: f64 = 1.5;
 
 /// Forgetting of the learned lines per verified forecast: about the last 50 weigh.
 const FORGET: f64 = 0.98;
 
-/// A line y = w·x + b fitted by recursive least squares with forgetting, and the variance of
-/// its errors before each update (the error a forecast made with it should expect).
+/// What a learned line is fitted on: the ensemble's forecast change from the moment the
+/// forecast is made, the ensemble's misfit to the reading then (its mean less the reading),
+/// and 1.
+const REGRESSORS: usize = 3;
+
+/// A line y = w₁·Δm + w₂·(m₀ − y₀) + b fitted by recursive least squares with forgetting, and
+/// the variance of its errors before each update (the error a forecast made with it should
+/// expect). With w₁ = w₂ = 1 and b = 0 the forecast is the ensemble's own mean; with w₁ = 1,
+/// w₂ = 0 its change added to the reading; with all 0, persistence.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct Learned {
-    theta: [f64; 2],
-    p: [[f64; 2]; 2],
+    theta: [f64; REGRESSORS],
+    p: [[f64; REGRESSORS]; REGRESSORS],
     error_var: f64,
     verified: usize,
     /// The last `KEPT_ERRORS` errors before each update, measured − forecast, °C: what the
@@ -130,13 +139,13 @@ struct Learned {
 }
 
 impl Learned {
-    /// Before any verification: the ensemble's change not yet trusted (w = 0 ± 1, b = 0 ± 1
-    /// °C: persistence until the verified forecasts show what the model's change is worth),
-    /// and the reading's error.
+    /// Before any verification: the ensemble not yet trusted (w = 0 ± 1, b = 0 ± 1 °C:
+    /// persistence until the verified forecasts show what the model is worth), and the
+    /// reading's error.
     fn new(sd_reading: f64) -> Learned {
         Learned {
-            theta: [0.0, 0.0],
-            p: [[1.0, 0.0], [0.0, 1.0]],
+            theta: [0.0; REGRESSORS],
+            p: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             error_var: sd_reading * sd_reading,
             verified: 0,
             errors: std::collections::VecDeque::new(),
@@ -163,30 +172,34 @@ impl Learned {
         )
     }
 
-    fn predict(&self, x: f64) -> f64 {
-        self.theta[0] * x + self.theta[1]
+    /// The change from the reading it forecasts, for the ensemble's change `change` and
+    /// misfit `misfit`.
+    fn predict(&self, change: f64, misfit: f64) -> f64 {
+        let x = [change, misfit, 1.0];
+        (0..REGRESSORS).map(|i| self.theta[i] * x[i]).sum()
     }
 
-    /// Learn from a verified forecast: the ensemble's change `x`, the measured one `y`, the
-    /// lead's `scale` ([`Learned::band`]).
-    fn learn(&mut self, x: f64, y: f64, scale: f64) {
-        let e = y - self.predict(x);
-        let px = [
-            self.p[0][0] * x + self.p[0][1],
-            self.p[1][0] * x + self.p[1][1],
-        ];
-        let denominator = FORGET + x * px[0] + px[1];
-        let k = [px[0] / denominator, px[1] / denominator];
-        // The weight stays within [0, W_MAX]: a model whose change counts against the data,
-        // or for more than the data's, is one a few early verifications misled (a first pass
-        // the model put late fits any slope).
-        self.theta = [
-            (self.theta[0] + k[0] * e).clamp(0.0, W_MAX),
-            self.theta[1] + k[1] * e,
-        ];
+    /// Learn from a verified forecast: the ensemble's change and misfit, the measured change
+    /// `y`, the lead's `scale` ([`Learned::band`]).
+    fn learn(&mut self, change: f64, misfit: f64, y: f64, scale: f64) {
+        let x = [change, misfit, 1.0];
+        let e = y - self.predict(change, misfit);
+        let px: [f64; REGRESSORS] =
+            std::array::from_fn(|i| (0..REGRESSORS).map(|j| self.p[i][j] * x[j]).sum());
+        let denominator = FORGET + (0..REGRESSORS).map(|i| x[i] * px[i]).sum::<f64>();
+        let k: [f64; REGRESSORS] = std::array::from_fn(|i| px[i] / denominator);
+        // The weights stay within [0, W_MAX]: a model that counts against the data, or for
+        // more than the data's own change, is one a few early verifications misled (a first
+        // pass the model put late fits any slope).
+        for i in 0..REGRESSORS {
+            self.theta[i] += k[i] * e;
+            if i < 2 {
+                self.theta[i] = self.theta[i].clamp(0.0, W_MAX);
+            }
+        }
         // P = (P − k·(xᵀP)) / λ, with xᵀP = pxᵀ (P symmetric).
-        for i in 0..2 {
-            for j in 0..2 {
+        for i in 0..REGRESSORS {
+            for j in 0..REGRESSORS {
                 self.p[i][j] = (self.p[i][j] - k[i] * px[j]) / FORGET;
             }
         }
@@ -406,7 +419,7 @@ impl<'a> Follower<'a> {
                 (None, None) => None,
             };
             if let (Some(m), Some(y0)) = (f.measured_c, f.persistence_c) {
-                learned[f.class].learn(f.change_c, m - y0, lead_scale(f));
+                learned[f.class].learn(f.change_c, f.misfit_c, m - y0, lead_scale(f));
             }
             false
         });
@@ -429,8 +442,9 @@ impl<'a> Follower<'a> {
         targets.sort_by(|a, b| a.0.total_cmp(&b.0));
         let times: Vec<f64> = targets.iter().map(|t| t.0).collect();
         let probes = self.twin.r.probes.clone();
+        let edge = self.twin.r.values.thermal.voxel_m;
         let read = |run: &ModelRun| -> Vec<Option<f64>> {
-            probes.iter().map(|&p| probe_k(run, p)).collect()
+            probes.iter().map(|&p| probe_k(run, p, edge)).collect()
         };
         let ahead = self.twin.forecast(&times, &read)?;
         let now = self.twin.read_members(&read);
@@ -447,7 +461,8 @@ impl<'a> Follower<'a> {
                 };
                 let ahead: Vec<f64> = pairs.iter().map(|p| p.0).collect();
                 let (mean, sd) = (enkf::mean(&ahead), enkf::spread(&ahead));
-                let change = mean - enkf::mean(&pairs.iter().map(|p| p.1).collect::<Vec<_>>());
+                let then = enkf::mean(&pairs.iter().map(|p| p.1).collect::<Vec<_>>());
+                let change = mean - then;
                 let class = k * (horizons + 1)
                     + match horizon {
                         Horizon::After(h) => self
@@ -461,8 +476,9 @@ impl<'a> Follower<'a> {
                     };
                 let learned = &self.progress.learned[class];
                 let persistence = self.progress.last_seen[k];
+                let misfit = persistence.map_or(0.0, |y0| then - C - y0);
                 let predicted = match persistence {
-                    Some(y0) => y0 + C + learned.predict(change),
+                    Some(y0) => y0 + C + learned.predict(change, misfit),
                     None => mean,
                 };
                 let scale = ((target - at) / 60.0).max(1e-3).sqrt();
@@ -481,6 +497,7 @@ impl<'a> Follower<'a> {
                     measured_c: None,
                     ensemble_c: mean - C,
                     change_c: change,
+                    misfit_c: misfit,
                     class,
                 });
             }
@@ -548,19 +565,19 @@ mod tests {
             let y = 0.4 * x + 2.0 + rng.random_range(-1.0..1.0);
             if k >= 100 {
                 let (below, above) = l.band(0.0, 1.0);
-                let f = l.predict(x);
+                let f = l.predict(x, 0.0);
                 inside += usize::from(f - below <= y && y <= f + above);
                 n += 1;
             }
-            l.learn(x, y, 1.0);
+            l.learn(x, 0.0, y, 1.0);
         }
         assert!((l.theta[0] - 0.4).abs() < 0.05, "{:?}", l.theta);
-        assert!((l.theta[1] - 2.0).abs() < 0.3, "{:?}", l.theta);
+        assert!((l.theta[2] - 2.0).abs() < 0.3, "{:?}", l.theta);
         let share = inside as f64 / n as f64;
         assert!((0.8..=0.97).contains(&share), "{share}");
         let mut wild = Learned::new(1.0);
-        wild.learn(1.0, 500.0, 1.0);
-        assert!(wild.theta[0] <= W_MAX);
+        wild.learn(1.0, 1.0, 500.0, 1.0);
+        assert!(wild.theta[0] <= W_MAX && wild.theta[1] <= W_MAX);
     }
 
     /// Two tracks with travel between them are two layers, each from its first arc to its

@@ -159,10 +159,24 @@ fn normals(rng: &mut rand_chacha::ChaCha8Rng, n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// The temperature `run` has at probe `p` (m), K: its voxel's, where one is active there.
-pub fn probe_k(run: &ModelRun, p: [f64; 3]) -> Option<f64> {
+/// The voxel a probe at `p` (m) reads: the replay's (within one voxel edge), else the nearest
+/// active one within 1.5 edges. A twin's coarser grid may lay a one-voxel wall whose centres
+/// lie a whole edge from its face, where a camera's points are (the GAMMA wall at 2 mm).
+pub fn probe_voxel(model: &thermal::voxel::VoxelModel, p: [f64; 3], edge: f64) -> Option<u32> {
+    model.voxel_near(p).or_else(|| {
+        model
+            .voxels_within(p, 1.5 * edge)
+            .into_iter()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(v, _)| v)
+    })
+}
+
+/// The temperature `run` has at probe `p` (m), K ([`probe_voxel`]'s), where one is active
+/// there.
+pub fn probe_k(run: &ModelRun, p: [f64; 3], edge: f64) -> Option<f64> {
     match run {
-        ModelRun::Voxel(v) => v.model().voxel_near(p).map(|c| v.model().temperature(c)),
+        ModelRun::Voxel(v) => probe_voxel(v.model(), p, edge).map(|c| v.model().temperature(c)),
         ModelRun::ThinWall(_) => None,
     }
 }
@@ -313,7 +327,7 @@ impl<'a> Twin<'a> {
             let ModelRun::Voxel(first) = &self.state.members[0].run else {
                 continue;
             };
-            let Some(at) = first.model().voxel_near(p) else {
+            let Some(at) = probe_voxel(first.model(), p, self.r.values.thermal.voxel_m) else {
                 continue;
             };
             let region = first.model().voxels_within(p, 2.0 * c);
@@ -590,7 +604,7 @@ mod tests {
             let readings: Vec<Option<f64>> = r
                 .probes
                 .iter()
-                .map(|&p| probe_k(&truth, p).map(|k| k - C))
+                .map(|&p| probe_k(&truth, p, 2e-3).map(|k| k - C))
                 .collect();
             f.feed(t, &readings).unwrap();
             t += 0.5;
