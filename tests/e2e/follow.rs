@@ -227,10 +227,7 @@ fn ornl_pad_followed_live_at_twenty_times_its_pace() {
     let (header, alarms) = crate::read_csv(&out.join("alarms.csv"));
     let limit = header.iter().position(|h| h == "limit_c").unwrap();
     assert!(alarms.iter().all(|a| a[limit] == "150.00"), "{alarms:?}");
-    assert!(
-        text.contains("alarm at t =") == !alarms.is_empty(),
-        "{text}"
-    );
+    assert!(text.contains("alarm at t =") != alarms.is_empty(), "{text}");
 }
 
 /// The small wall the faults are tried on: six tracks of 40 mm, three thermocouples beside it
@@ -323,11 +320,11 @@ fn follow_killed_then_resumed_writes_what_one_run_does() {
     let (scenario, lines) = small_wall(&dir, "interpass_max_c = 100.0");
     std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
     let once = dir.join("once");
-    let (ok, text) = finish(
+    let (ok, once_text) = finish(
         follow(&scenario, &once, &["--until-idle-s", "2"]),
         Duration::from_secs(300),
     );
-    assert!(ok, "{text}");
+    assert!(ok, "{once_text}");
     // Now the file grows while the twin runs, and the twin is killed after a checkpoint.
     let growing = dir.join("growing");
     std::fs::create_dir_all(&growing).unwrap();
@@ -362,10 +359,31 @@ fn follow_killed_then_resumed_writes_what_one_run_does() {
         Duration::from_secs(300),
     );
     assert!(ok, "{text}");
+    // Killed 2 s after its first checkpoint while the logger wrote 50 rows a second for 6.4 s:
+    // part-way, and the resumed run went on from there.
+    assert!(text.contains("resuming follow"), "{text}");
+    let v = json(&out.join("follow.json"));
+    assert_eq!(v["rows"], 277);
     for f in ["forecasts.csv", "assimilation.csv", "alarms.csv"] {
         let a = std::fs::read_to_string(once.join(f)).unwrap();
         let b = std::fs::read_to_string(out.join(f)).unwrap();
         assert!(a == b, "{f} differs after the resume");
-        assert!(a.lines().count() > 1 || f == "alarms.csv", "{f} is empty");
+        assert!(a.lines().count() > 1, "{f} is empty");
     }
+    // The wall's upper layers start on metal over 100 °C: alarmed, each with a dwell longer
+    // than the program's and a line on stderr.
+    let (header, alarms) = crate::read_csv(&once.join("alarms.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert!(!alarms.is_empty(), "no alarm at 100 °C");
+    for a in &alarms {
+        let programmed: f64 = a[col("programmed_dwell_s")].parse().unwrap();
+        let advised: f64 = a[col("advised_dwell_s")].parse().unwrap();
+        let p95: f64 = a[col("predicted_p95_c")].parse().unwrap();
+        assert!(p95 > 100.0 && advised > programmed, "{a:?}");
+    }
+    assert_eq!(
+        once_text.matches("alarm at t =").count(),
+        alarms.len(),
+        "{once_text}"
+    );
 }

@@ -214,7 +214,8 @@ pub fn run(
             eprintln!("follow: {line}");
             counters.restarts.push(line);
         }
-        if !look.lines.is_empty() {
+        let fresh = !look.lines.is_empty();
+        if fresh {
             if stalled {
                 eprintln!(
                     "follow: {}: readings again after {:.0} s",
@@ -258,6 +259,12 @@ pub fn run(
         }
         if done(&follower) {
             break "the data reached the program's end and the longest horizon";
+        }
+        if fresh {
+            // Idle counts from the end of the work on what came, not from its reading: a twin
+            // that fell behind must not take its own lag for a silent logger.
+            last_new = Instant::now();
+            continue;
         }
         let idle = last_new.elapsed().as_secs_f64();
         if until_idle_s.is_some_and(|u| idle >= u) {
@@ -567,6 +574,8 @@ fn report(
         "scores": scores,
         "parameters": parameters,
         "alarms": p.alarms.iter().map(alarm_json).collect::<Vec<_>>(),
+        "layers_judged": p.judged.iter().map(|j| json!({"made_at_s": j.0, "layer": j.1,
+            "predicted_p95_c": j.2})).collect::<Vec<_>>(),
     })
 }
 

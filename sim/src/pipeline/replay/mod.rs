@@ -168,40 +168,32 @@ mod tests {
     }
 }
 
+/// What the engine's tests lay: tracks one way, voxel settings.
 #[cfg(test)]
-mod checkpoint_tests {
-    use super::*;
+pub(crate) mod fixtures {
     use crate::measured::toolpath::Waypoint;
-    use crate::pipeline::deposition::heat_model_of;
     use crate::pipeline::params::{ThermalModel, ThermalSettings};
 
-    /// A run stopped in a gap of the schedule (a calibration's fit window ending between two
-    /// tracks) and advanced from its clone ends where a run advanced at once does: the same
-    /// deposits laid, every deposit's metal within 0.1 K (the cooling is cut into steps
-    /// differently), on the voxel model with a plate of its own material.
-    #[test]
-    fn a_run_resumed_from_its_checkpoint_ends_where_one_run_does() {
-        let path: Vec<Waypoint> = (0..6)
+    /// `n` tracks along x from −`half_mm` to +`half_mm`, 1.5 mm apart in z, one every
+    /// `period_s`, each laid in `arc_s` after travel back.
+    pub fn tracks(n: usize, period_s: f64, arc_s: f64, half_mm: f64) -> Vec<Waypoint> {
+        (0..n)
             .flat_map(|k| {
-                let (t, z) = (10.0 * k as f64, 1.5 * (k + 1) as f64);
+                let (t, z) = (period_s * k as f64, 1.5 * (k + 1) as f64);
                 let at = |t_s, x, on| Waypoint {
                     t_s,
                     position_mm: [x, 0.0, z],
                     on,
                     power_w: None,
                 };
-                [at(t, -15.0, false), at(t + 5.0, 15.0, true)]
+                [at(t, -half_mm, false), at(t + arc_s, half_mm, true)]
             })
-            .collect();
-        let l = Laying {
-            power_w: 2000.0,
-            efficiency: 0.8,
-            width_m: 4e-3,
-            height_m: 1.5e-3,
-            deposit_m: 2e-3,
-        };
-        let deps = deposits(&path, &l);
-        let t = ThermalSettings {
+            .collect()
+    }
+
+    /// The voxel model at 2 mm on a plate of `plate_m`, G3Si's usual losses.
+    pub fn voxel_settings(plate_m: [f64; 3]) -> ThermalSettings {
+        ThermalSettings {
             table_contact_w_m2k: 100.0,
             plate_cell_m: 5e-3,
             node_m: 3e-3,
@@ -214,11 +206,35 @@ mod checkpoint_tests {
             ambient_k: 293.15,
             convection_w_m2k: 15.0,
             emissivity: 0.6,
-            plate_m: [60e-3, 30e-3, 10e-3],
+            plate_m,
             plate_fit: false,
             plate_disc: false,
             lead_m: 10e-3,
+        }
+    }
+}
+
+#[cfg(test)]
+mod checkpoint_tests {
+    use super::*;
+    use crate::pipeline::deposition::heat_model_of;
+
+    /// A run stopped in a gap of the schedule (a calibration's fit window ending between two
+    /// tracks) and advanced from its clone ends where a run advanced at once does: the same
+    /// deposits laid, every deposit's metal within 0.1 K (the cooling is cut into steps
+    /// differently), on the voxel model with a plate of its own material.
+    #[test]
+    fn a_run_resumed_from_its_checkpoint_ends_where_one_run_does() {
+        let path = fixtures::tracks(6, 10.0, 5.0, 15.0);
+        let l = Laying {
+            power_w: 2000.0,
+            efficiency: 0.8,
+            width_m: 4e-3,
+            height_m: 1.5e-3,
+            deposit_m: 2e-3,
         };
+        let deps = deposits(&path, &l);
+        let t = fixtures::voxel_settings([60e-3, 30e-3, 10e-3]);
         let mut model = heat_model_of(
             thermal::material::Material::in718(),
             &t,

@@ -191,16 +191,16 @@ impl Learned {
         // The weights stay within [0, W_MAX]: a model that counts against the data, or for
         // more than the data's own change, is one a few early verifications misled (a first
         // pass the model put late fits any slope).
-        for i in 0..REGRESSORS {
-            self.theta[i] += k[i] * e;
+        for (i, (theta, ki)) in self.theta.iter_mut().zip(k).enumerate() {
+            *theta += ki * e;
             if i < 2 {
-                self.theta[i] = self.theta[i].clamp(0.0, W_MAX);
+                *theta = theta.clamp(0.0, W_MAX);
             }
         }
         // P = (P − k·(xᵀP)) / λ, with xᵀP = pxᵀ (P symmetric).
-        for i in 0..REGRESSORS {
-            for j in 0..REGRESSORS {
-                self.p[i][j] = (self.p[i][j] - k[i] * px[j]) / FORGET;
+        for (row, ki) in self.p.iter_mut().zip(k) {
+            for (pij, pxj) in row.iter_mut().zip(px) {
+                *pij = (*pij - ki * pxj) / FORGET;
             }
         }
         let scaled = e / scale;
@@ -274,6 +274,8 @@ pub struct Progress {
     /// Forecasts still waiting for their measurement.
     pending: Vec<usize>,
     pub alarms: Vec<Alarm>,
+    /// Every layer start judged: (made at, layer from 1, 95th percentile °C), alarm or not.
+    pub judged: Vec<(f64, usize, f64)>,
     pub settling: Vec<(f64, usize, f64, f64)>,
     /// Per probe and horizon class, what the verified forecasts taught.
     learned: Vec<Learned>,
@@ -305,6 +307,7 @@ impl<'a> Follower<'a> {
             forecasts: Vec::new(),
             pending: Vec::new(),
             alarms: Vec::new(),
+            judged: Vec::new(),
             settling: Vec::new(),
             rows: 0,
             readings: 0,
@@ -526,6 +529,7 @@ impl<'a> Follower<'a> {
             return Ok(None);
         };
         let p95 = quantile(members, 0.95);
+        self.progress.judged.push((at, n + 1, p95 - C));
         if p95 <= limit {
             return Ok(None);
         }

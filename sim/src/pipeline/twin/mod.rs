@@ -508,27 +508,14 @@ pub fn quantile(v: &[f64], q: f64) -> f64 {
 mod tests {
     use super::follow::Follower;
     use super::*;
-    use crate::measured::toolpath::Waypoint;
-    use crate::pipeline::params::{ThermalModel, ThermalSettings};
-    use crate::pipeline::replay::Laying;
+    use crate::pipeline::replay::{Laying, fixtures};
     use thermal::ZERO_CELSIUS_K as C;
     use thermal::material::Material;
     use thermal::voxel::HeatSource;
 
     /// Eight tracks of 30 mm one way on a small plate, two thermocouples beside the wall.
     fn wall() -> Replay {
-        let path: Vec<Waypoint> = (0..8)
-            .flat_map(|k| {
-                let (t, z) = (15.0 * k as f64, 1.5 * (k + 1) as f64);
-                let at = |t_s, x, on| Waypoint {
-                    t_s,
-                    position_mm: [x, 0.0, z],
-                    on,
-                    power_w: None,
-                };
-                [at(t, -15.0, false), at(t + 5.0, 15.0, true)]
-            })
-            .collect();
+        let path = fixtures::tracks(8, 15.0, 5.0, 15.0);
         let laying = Laying {
             power_w: 1500.0,
             efficiency: 0.8,
@@ -536,24 +523,7 @@ mod tests {
             height_m: 1.5e-3,
             deposit_m: 2e-3,
         };
-        let thermal = ThermalSettings {
-            table_contact_w_m2k: 100.0,
-            plate_cell_m: 5e-3,
-            node_m: 3e-3,
-            deposit_k: 1823.15,
-            footprint_m: 4e-3,
-            hot_threshold_k: 873.15,
-            temperature_dependent: true,
-            voxel_m: 2e-3,
-            model: ThermalModel::Voxel,
-            ambient_k: 293.15,
-            convection_w_m2k: 15.0,
-            emissivity: 0.6,
-            plate_m: [50e-3, 30e-3, 6e-3],
-            plate_fit: false,
-            plate_disc: false,
-            lead_m: 10e-3,
-        };
+        let thermal = fixtures::voxel_settings([50e-3, 30e-3, 6e-3]);
         let probes = vec![[-8e-3, 6e-3, 0.0], [8e-3, 6e-3, 0.0]];
         Replay::new(
             &path,
