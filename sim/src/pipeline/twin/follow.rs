@@ -5,13 +5,14 @@
 //! layer's start judged against the interpass limit at its 95th percentile.
 //!
 //! A forecast is the ensemble's, put on the sensor's own footing: the last reading plus the
-//! change the ensemble forecasts, that change weighed by what the sensor taught so far (per
-//! probe and horizon, a line fitted by recursive least squares to the forecasts already
-//! verified: model output statistics, Glahn & Lowry 1972, J. Appl. Meteor. 11, 1203–1211).
-//! Where the model is right about a sensor the weight stays near 1; where the sensor sees less
-//! of each pass than the model does (a thermocouple further from the bead than thought) it
-//! falls toward 0, and the forecast toward persistence. The ensemble's own mean is kept beside
-//! it (`ensemble_c`).
+//! change the ensemble forecasts and its misfit to the reading, each weighed by what the
+//! verified forecasts taught so far (a line fitted by recursive least squares, per horizon over
+//! all probes until a probe has its own 20 verifications, then per probe: model output
+//! statistics, Glahn & Lowry 1972, J. Appl. Meteor. 11, 1203–1211). Where the model is right
+//! about a sensor the weights go toward 1 (the ensemble's own forecast); where the sensor sees
+//! less of each pass than the model does (a thermocouple further from the bead than thought)
+//! they fall toward 0, and the forecast toward persistence. The ensemble's own mean is kept
+//! beside it (`ensemble_c`).
 //!
 //! A layer is a pass of the torch as a replay cuts them ([`replay::pass_starts`]): a track after
 //! travel or after a pause with the arc off. A CTPP spiral's revolution would be one too once
@@ -99,8 +100,9 @@ pub struct Forecast {
     pub ensemble_c: f64,
     change_c: f64,
     misfit_c: f64,
-    /// Which learned line this forecast uses and teaches.
+    /// The learned lines this forecast teaches: its probe's and its horizon's over all probes.
     class: usize,
+    pooled: usize,
 }
 
 /// √ of a forecast's lead in minutes: what its error is scaled by ([`Learned::band`]).
@@ -111,6 +113,9 @@ fn lead_scale(f: &Forecast) -> f64 {
 /// Verified errors the band is cut from, and the fewest it is cut from.
 const KEPT_ERRORS: usize = 50;
 const FEWEST_ERRORS: usize = 10;
+
+/// Verified forecasts after which a probe's own line takes over from its horizon's.
+const OWN_LINE_AFTER: usize = 20;
 
 /// The most a learned line weighs the ensemble's change, or its misfit, by.
 const W_MAX: f64 = 1.5;
@@ -159,9 +164,15 @@ impl Learned {
     /// The errors are kept divided by `scale` (√ of the lead time in minutes: a next layer's
     /// start may lie a minute ahead or fifteen, and a diffusing error grows as √t) and the band
     /// multiplied back by it.
-    fn band(&self, sd: f64, scale: f64) -> (f64, f64) {
-        let half =
-            1.645 * (self.theta[0].powi(2) * sd * sd + self.error_var * scale * scale).sqrt();
+    /// Until then the expected error is at least `unverified_var` (the twin's innovations'
+    /// running variance: its error at the sensors, known from the first analyses on, where
+    /// the reading's error alone made a band too narrow for what a forecast meets).
+    fn band(&self, sd: f64, scale: f64, unverified_var: f64) -> (f64, f64) {
+        let var = match self.errors.len() < FEWEST_ERRORS {
+            true => self.error_var.max(unverified_var),
+            false => self.error_var,
+        };
+        let half = 1.645 * (self.theta[0].powi(2) * sd * sd + var * scale * scale).sqrt();
         if self.errors.len() < FEWEST_ERRORS {
             return (half, half);
         }
@@ -204,8 +215,11 @@ impl Learned {
             }
         }
         let scaled = e / scale;
-        self.error_var = FORGET * self.error_var + (1.0 - FORGET) * scaled * scaled;
+        // The mean of the squared errors so far, then a running one over the memory: a few
+        // verifications must not leave the band at the reading's error alone.
         self.verified += 1;
+        let weight = (1.0 / self.verified as f64).max(1.0 - FORGET);
+        self.error_var += weight * (scaled * scaled - self.error_var);
         if self.errors.len() == KEPT_ERRORS {
             self.errors.pop_front();
         }
@@ -277,7 +291,8 @@ pub struct Progress {
     /// Every layer start judged: (made at, layer from 1, 95th percentile °C), alarm or not.
     pub judged: Vec<(f64, usize, f64)>,
     pub settling: Vec<(f64, usize, f64, f64)>,
-    /// Per probe and horizon class, what the verified forecasts taught.
+    /// Per probe and horizon, then per horizon over all probes, what the verified forecasts
+    /// taught.
     learned: Vec<Learned>,
     pub rows: usize,
     pub readings: usize,
@@ -296,7 +311,8 @@ pub struct Follower<'a> {
 
 impl<'a> Follower<'a> {
     pub fn new(twin: Twin<'a>, deps: &[Deposit], probes: usize) -> Follower<'a> {
-        let classes = probes * (twin.settings.horizons_s.len() + 1);
+        // Per probe and horizon, then per horizon over all probes.
+        let classes = (probes + 1) * (twin.settings.horizons_s.len() + 1);
         let learned = vec![Learned::new(twin.settings.reading_sd_k); classes];
         let progress = Progress {
             learned,
@@ -422,7 +438,9 @@ impl<'a> Follower<'a> {
                 (None, None) => None,
             };
             if let (Some(m), Some(y0)) = (f.measured_c, f.persistence_c) {
-                learned[f.class].learn(f.change_c, f.misfit_c, m - y0, lead_scale(f));
+                for line in [f.class, f.pooled] {
+                    learned[line].learn(f.change_c, f.misfit_c, m - y0, lead_scale(f));
+                }
             }
             false
         });
@@ -466,18 +484,23 @@ impl<'a> Follower<'a> {
                 let (mean, sd) = (enkf::mean(&ahead), enkf::spread(&ahead));
                 let then = enkf::mean(&pairs.iter().map(|p| p.1).collect::<Vec<_>>());
                 let change = mean - then;
-                let class = k * (horizons + 1)
-                    + match horizon {
-                        Horizon::After(h) => self
-                            .twin
-                            .settings
-                            .horizons_s
-                            .iter()
-                            .position(|x| x == h)
-                            .unwrap_or(0),
-                        Horizon::NextLayer => horizons,
-                    };
-                let learned = &self.progress.learned[class];
+                let h = match horizon {
+                    Horizon::After(h) => self
+                        .twin
+                        .settings
+                        .horizons_s
+                        .iter()
+                        .position(|x| x == h)
+                        .unwrap_or(0),
+                    Horizon::NextLayer => horizons,
+                };
+                let (class, pooled) = (k * (horizons + 1) + h, probes.len() * (horizons + 1) + h);
+                // A probe's own line once it has been verified often enough, else the line
+                // all probes of this horizon taught together (learned as many times faster).
+                let learned = match self.progress.learned[class].verified >= OWN_LINE_AFTER {
+                    true => &self.progress.learned[class],
+                    false => &self.progress.learned[pooled],
+                };
                 let persistence = self.progress.last_seen[k];
                 let misfit = persistence.map_or(0.0, |y0| then - C - y0);
                 let predicted = match persistence {
@@ -485,7 +508,7 @@ impl<'a> Follower<'a> {
                     None => mean,
                 };
                 let scale = ((target - at) / 60.0).max(1e-3).sqrt();
-                let (below, above) = learned.band(sd, scale);
+                let (below, above) = learned.band(sd, scale, self.twin.innovation_var());
                 self.progress.pending.push(self.progress.forecasts.len());
                 self.progress.forecasts.push(Forecast {
                     made_at_s: at,
@@ -502,6 +525,7 @@ impl<'a> Follower<'a> {
                     change_c: change,
                     misfit_c: misfit,
                     class,
+                    pooled,
                 });
             }
         }
@@ -568,7 +592,7 @@ mod tests {
             let x: f64 = rng.random_range(-10.0..10.0);
             let y = 0.4 * x + 2.0 + rng.random_range(-1.0..1.0);
             if k >= 100 {
-                let (below, above) = l.band(0.0, 1.0);
+                let (below, above) = l.band(0.0, 1.0, 0.0);
                 let f = l.predict(x, 0.0);
                 inside += usize::from(f - below <= y && y <= f + above);
                 n += 1;

@@ -245,19 +245,9 @@ impl<'a> Twin<'a> {
         })
     }
 
-    /// The twin with a state kept earlier (a resumed run).
-    pub fn resume(
-        r: &'a Replay,
-        settings: Settings,
-        priors: Vec<Uncertain>,
-        state: State,
-    ) -> Twin<'a> {
-        Twin {
-            r,
-            settings,
-            priors,
-            state,
-        }
+    /// The running variance of the innovations, K²: the twin's error at the sensors.
+    pub fn innovation_var(&self) -> f64 {
+        self.state.innovation_var
     }
 
     /// The build time the twin stands at, s.
