@@ -283,6 +283,9 @@ fn a_garbage_line_and_a_reading_back_in_time_are_named_and_skipped() {
     // Up to the program's end (108 s) and the longest horizon (30 s): 0–138 s.
     assert_eq!(v["rows"], 277);
     assert!(v["forecasts"].as_u64().unwrap() > 0);
+    for f in ["probes.png", "run.rrd", "run.mcap"] {
+        assert!(out.join(f).is_file(), "no {f}");
+    }
 }
 
 /// The logger stops for 30 s mid-build: follow says the source stalled, keeps its state, and

@@ -148,7 +148,7 @@ pub(crate) fn read(path: &Path) -> Result<String> {
 
 /// The laid path as polylines, one a track (mm).
 #[cfg(feature = "recording")]
-fn tracks(deps: &[Deposit]) -> Vec<Vec<[f64; 3]>> {
+pub(crate) fn tracks(deps: &[Deposit]) -> Vec<Vec<[f64; 3]>> {
     let mut out: Vec<Vec<[f64; 3]>> = Vec::new();
     for (i, d) in deps.iter().enumerate() {
         let mm = |p: [f64; 3]| p.map(|x| x * 1e3);

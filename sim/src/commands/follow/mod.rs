@@ -289,6 +289,8 @@ pub fn run(
     write(
         &mut dir, &follower, &names, &priors, &counters, &clock, ending,
     )?;
+    #[cfg(feature = "recording")]
+    record(&mut dir, scenario, &r, &p, &follower)?;
     dir.finish("follow", s.to_json())?;
     folder.close()?;
     Ok(summary(&follower, &counters, ending))
@@ -340,6 +342,55 @@ fn feed(
         counters.behind_at_s.push(t);
     }
     Ok(())
+}
+
+/// probes.png, run.rrd and run.mcap: each probe as measured and as forecast one horizon (the
+/// shortest) before, at the forecasts' targets.
+#[cfg(feature = "recording")]
+fn record(dir: &mut RunDir, scenario: &Path, r: &Replay, p: &Probes, f: &Follower) -> Result<()> {
+    let Some(&first) = f.twin.settings.horizons_s.first() else {
+        return Ok(());
+    };
+    let samples: Vec<Vec<crate::pipeline::replay::Sample>> = (0..p.points.len())
+        .map(|k| {
+            let mut v: Vec<_> = f
+                .progress
+                .forecasts
+                .iter()
+                .filter(|x| x.probe == k && x.horizon == Horizon::After(first))
+                .filter_map(|x| Some((x.target_t_s, x.measured_c?, x.predicted_c)))
+                .collect();
+            v.sort_by(|a, b| a.0.total_cmp(&b.0));
+            v
+        })
+        .collect();
+    if samples.iter().all(Vec::is_empty) {
+        return Ok(());
+    }
+    let title = format!(
+        "{}: forecast {first:.0} s before",
+        scenario
+            .file_stem()
+            .map_or("follow".into(), |n| n.to_string_lossy())
+    );
+    let series: Vec<(&str, &[crate::pipeline::replay::Sample])> = p
+        .points
+        .iter()
+        .zip(&samples)
+        .map(|(q, s)| (q.name.as_str(), s.as_slice()))
+        .collect();
+    crate::record::probe_plot(dir, "probes.png", &title, &series, None)?;
+    let recorded: Vec<crate::record::replay::ProbeSeries> = p
+        .points
+        .iter()
+        .zip(&samples)
+        .map(|(q, s)| crate::record::replay::ProbeSeries {
+            name: &q.name,
+            position_mm: q.position_m.map(|x| x * 1e3),
+            samples: s,
+        })
+        .collect();
+    crate::record::replay::write(dir, &title, &super::replay::tracks(&r.deps), &recorded)
 }
 
 /// Per horizon, over every probe: the forecasts' RMS against what was measured.
