@@ -390,3 +390,28 @@ fn follow_killed_then_resumed_writes_what_one_run_does() {
         "{once_text}"
     );
 }
+
+/// Ctrl-C (SIGINT) ends a follow with its files written and says so in follow.json.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_ends_a_follow_with_its_files() {
+    let dir = scratch("follow_interrupt");
+    let (scenario, lines) = small_wall(&dir, "");
+    // A logger slower than the test: the run would wait for more.
+    let writer = logger(dir.join("log.csv"), lines, Duration::from_millis(50), None);
+    let out = dir.join("out");
+    let child = follow(&scenario, &out, &[]);
+    std::thread::sleep(Duration::from_secs(4));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let (ok, text) = finish(child, Duration::from_secs(60));
+    assert!(ok, "{text}");
+    let v = json(&out.join("follow.json"));
+    assert_eq!(v["state"], "interrupted (Ctrl-C)", "{text}");
+    assert!(v["rows"].as_u64().unwrap() < 277, "{}", v["rows"]);
+    assert!(out.join("forecasts.csv").is_file() && out.join("manifest.json").is_file());
+    writer.join().unwrap();
+}

@@ -26,7 +26,6 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write;
 use std::path::Path;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use tail::{Mark, Tail};
@@ -189,20 +188,21 @@ pub fn run(
     let mut tail = Tail::new(&p.file, mark);
     let mut dir = RunDir::create(out)?;
     let names = names(&p);
-    let interrupted = Arc::new(AtomicBool::new(false));
-    {
-        let flag = interrupted.clone();
-        // A second handler (a test calling `run` twice) is refused; the first one still sets
-        // a flag nobody reads then, which only costs the graceful end.
-        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
-    }
+    // One handler for the process (a second would be refused), one flag every run reads.
+    static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+    static HANDLER: std::sync::Once = std::sync::Once::new();
+    HANDLER.call_once(|| {
+        // Without a handler Ctrl-C ends the process at once, as it always did: no files.
+        let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+    });
+    INTERRUPTED.store(false, Ordering::SeqCst);
     let program_end = r.deps.last().map_or(0.0, |d| d.time);
     let longest = live.twin.horizons_s.iter().copied().fold(0.0, f64::max);
     let clock = Instant::now();
     let (mut last_new, mut last_rewrite) = (Instant::now(), Instant::now());
     let mut stalled = false;
     let ending = loop {
-        if interrupted.load(Ordering::SeqCst) {
+        if INTERRUPTED.load(Ordering::SeqCst) {
             break "interrupted (Ctrl-C)";
         }
         let look = tail
