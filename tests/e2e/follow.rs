@@ -415,3 +415,29 @@ fn ctrl_c_ends_a_follow_with_its_files() {
     assert!(out.join("forecasts.csv").is_file() && out.join("manifest.json").is_file());
     writer.join().unwrap();
 }
+
+/// The same rows give the same forecasts, parameters and alarms on one thread or two (the
+/// members are stepped in parallel, each on its own).
+#[test]
+fn one_thread_or_two_follow_alike() {
+    let dir = scratch("follow_threads");
+    let (scenario, lines) = small_wall(&dir, "interpass_max_c = 100.0");
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let run = |threads: &str| {
+        let out = dir.join(format!("threads-{threads}"));
+        let o = Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+            .args(["follow", scenario.to_str().unwrap(), "-o"])
+            .arg(&out)
+            .args(["--until-idle-s", "1"])
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out
+    };
+    let (one, two) = (run("1"), run("2"));
+    for f in ["forecasts.csv", "assimilation.csv", "alarms.csv"] {
+        let a = std::fs::read(one.join(f)).unwrap();
+        assert!(a == std::fs::read(two.join(f)).unwrap(), "{f} differs");
+    }
+}
