@@ -441,3 +441,57 @@ fn one_thread_or_two_follow_alike() {
         assert!(a == std::fs::read(two.join(f)).unwrap(), "{f} differs");
     }
 }
+
+/// Bad `[live]` input is named with its value and what was expected, exit 2, before any
+/// work: a relaxation past 1, a prior that is no calibration.json, a stall time below 0, no
+/// uncertain parameters.
+#[test]
+fn bad_live_input_is_named() {
+    let dir = scratch("follow_bad");
+    let cases: [(&str, &[&str]); 3] = [
+        (
+            "relaxation = 2.0",
+            &["live.relaxation = 2", "a share in [0, 1]"],
+        ),
+        (
+            "prior = \"log.csv\"",
+            &["log.csv", "expected a calibration.json"],
+        ),
+        (
+            "stall_s = -1.0",
+            &["live.stall_s = -1", "a number in (0, 1000000]"],
+        ),
+    ];
+    for (k, (live, needles)) in cases.iter().enumerate() {
+        let case = dir.join(format!("case{k}"));
+        std::fs::create_dir_all(&case).unwrap();
+        let (scenario, lines) = small_wall(&case, live);
+        std::fs::write(case.join("log.csv"), lines.join("\n") + "\n").unwrap();
+        let out = crate::waamtwin(&[
+            "follow",
+            scenario.to_str().unwrap(),
+            "-o",
+            case.join("out").to_str().unwrap(),
+        ]);
+        crate::assert_input_error(&out, needles);
+    }
+    // Without [calibrate] nothing is uncertain.
+    let case = dir.join("no_prior");
+    std::fs::create_dir_all(&case).unwrap();
+    let (scenario, lines) = small_wall(&case, "");
+    let text = std::fs::read_to_string(&scenario).unwrap();
+    let cut = text.replace(
+        "[calibrate]\nparameters = [{ name = \"efficiency\", low = 0.5, high = 0.95 }]\n",
+        "",
+    );
+    assert_ne!(cut, text);
+    std::fs::write(&scenario, cut).unwrap();
+    std::fs::write(case.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let out = crate::waamtwin(&[
+        "follow",
+        scenario.to_str().unwrap(),
+        "-o",
+        case.join("out").to_str().unwrap(),
+    ]);
+    crate::assert_input_error(&out, &["[calibrate]", "[live] prior"]);
+}
