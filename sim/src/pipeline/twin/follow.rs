@@ -20,7 +20,7 @@
 
 use super::{Twin, enkf, probe_k, quantile};
 use crate::pipeline::Error;
-use crate::pipeline::replay::{self, Parameter};
+use crate::pipeline::replay;
 use serde::{Deserialize, Serialize};
 use thermal::ZERO_CELSIUS_K as C;
 use thermal::schedule::Deposit;
@@ -271,9 +271,6 @@ impl Alarm {
         )
     }
 }
-
-/// One analysis' parameters: t_s, parameter, mean, sd.
-pub type Settling = (f64, Parameter, f64, f64);
 
 /// What a follow changes as it goes, beside the twin: what a checkpoint keeps.
 #[derive(Clone, Serialize, Deserialize)]

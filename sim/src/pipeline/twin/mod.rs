@@ -255,16 +255,22 @@ impl<'a> Twin<'a> {
         self.state.open_loop.now()
     }
 
-    /// Run the members and the open loop on to `t_s` (the program's deposits up to then).
-    pub fn advance(&mut self, t_s: f64) -> Result<(), Error> {
-        let (deps, eff) = (&self.r.deps, self.r.values.efficiency);
-        let efficiency = self
+    /// A member's heat against the schedule's, from its values: its efficiency over the
+    /// scenario's (1 where the efficiency is not uncertain).
+    fn heat_scale(&self) -> impl Fn(&[f64]) -> f64 + Sync + use<> {
+        let eff = self.r.values.efficiency;
+        let at = self
             .priors
             .iter()
             .position(|u| u.parameter == Parameter::Efficiency);
+        move |values: &[f64]| at.map_or(1.0, |k| values[k] / eff)
+    }
+
+    /// Run the members and the open loop on to `t_s` (the program's deposits up to then).
+    pub fn advance(&mut self, t_s: f64) -> Result<(), Error> {
+        let (deps, scale) = (&self.r.deps, self.heat_scale());
         self.state.members.par_iter_mut().try_for_each(|m| {
-            let scale = efficiency.map_or(1.0, |k| m.values[k] / eff);
-            replay::advance_scaled(&mut m.run, deps, t_s, scale, &mut |_| {})
+            replay::advance_scaled(&mut m.run, deps, t_s, scale(&m.values), &mut |_| {})
         })?;
         replay::advance(&mut self.state.open_loop, deps, t_s)?;
         Ok(())
@@ -401,16 +407,12 @@ impl<'a> Twin<'a> {
         targets: &[f64],
         read: &(dyn Fn(&ModelRun) -> T + Sync),
     ) -> Result<Vec<(Vec<T>, T)>, Error> {
-        let (deps, eff) = (&self.r.deps, self.r.values.efficiency);
-        let efficiency = self
-            .priors
-            .iter()
-            .position(|u| u.parameter == Parameter::Efficiency);
+        let (deps, scale) = (&self.r.deps, self.heat_scale());
         let runs: Vec<(ModelRun, f64)> = self
             .state
             .members
             .iter()
-            .map(|m| (m.run.clone(), efficiency.map_or(1.0, |k| m.values[k] / eff)))
+            .map(|m| (m.run.clone(), scale(&m.values)))
             .chain([(self.state.open_loop.clone(), 1.0)])
             .collect();
         let per_run = runs
@@ -451,19 +453,14 @@ impl<'a> Twin<'a> {
         step_s: f64,
         max_s: f64,
     ) -> Result<Option<f64>, Error> {
-        let (deps, eff) = (&self.r.deps, self.r.values.efficiency);
-        let efficiency = self
-            .priors
-            .iter()
-            .position(|u| u.parameter == Parameter::Efficiency);
+        let (deps, scale) = (&self.r.deps, self.heat_scale());
         let mut runs: Vec<ModelRun> = self
             .state
             .members
             .par_iter()
             .map(|m| {
                 let mut run = m.run.clone();
-                let scale = efficiency.map_or(1.0, |k| m.values[k] / eff);
-                replay::advance_scaled(&mut run, deps, from_s, scale, &mut |_| {})?;
+                replay::advance_scaled(&mut run, deps, from_s, scale(&m.values), &mut |_| {})?;
                 Ok(run)
             })
             .collect::<Result<Vec<ModelRun>, Error>>()?;
