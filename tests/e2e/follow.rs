@@ -10,7 +10,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Start `waamtwin follow SCENARIO -o OUT ARGS…` in the background.
-fn follow(scenario: &Path, out: &Path, args: &[&str]) -> Child {
+pub(crate) fn follow(scenario: &Path, out: &Path, args: &[&str]) -> Child {
     Command::new(env!("CARGO_BIN_EXE_waamtwin"))
         .args([
             "follow",
@@ -27,7 +27,7 @@ fn follow(scenario: &Path, out: &Path, args: &[&str]) -> Child {
 }
 
 /// Wait at most `limit` for `child`; kill it past that (a failed test, not a hung one).
-fn finish(mut child: Child, limit: Duration) -> (bool, String) {
+pub(crate) fn finish(mut child: Child, limit: Duration) -> (bool, String) {
     let start = Instant::now();
     loop {
         if let Some(status) = child.try_wait().unwrap() {
@@ -80,13 +80,13 @@ fn logger(
     })
 }
 
-fn json(path: &Path) -> serde_json::Value {
+pub(crate) fn json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
 /// A copy of `scenario` with its probe file at `probes` and every other relative path made
 /// absolute, and `extra` appended to its `[live]` section (added where it has none).
-fn scenario_with(scenario: &Path, probes: &Path, live: &str, at: &Path) {
+pub(crate) fn scenario_with(scenario: &Path, probes: &Path, live: &str, at: &Path) {
     let base = scenario.parent().unwrap();
     let text = std::fs::read_to_string(scenario).unwrap();
     let mut out = String::new();
@@ -128,7 +128,7 @@ fn scenario_with(scenario: &Path, probes: &Path, live: &str, at: &Path) {
     std::fs::write(at, out).unwrap();
 }
 
-fn validation_file(path: &str) -> Option<PathBuf> {
+pub(crate) fn validation_file(path: &str) -> Option<PathBuf> {
     let p = root().join("../shared/validation-data").join(path);
     if p.is_file() {
         Some(p)

@@ -8,6 +8,7 @@ mod dwell;
 mod export;
 mod family;
 mod follow;
+mod follow_opcua;
 mod inspect;
 mod outputs;
 mod replay;
@@ -49,6 +50,37 @@ pub fn system_tests(what: &str) -> bool {
     }
     eprintln!("skipped: {what} (set {SYSTEM_TESTS}=1 to run it)");
     false
+}
+
+/// A virtual environment with the pinned readers, made once per target directory.
+pub fn readers() -> PathBuf {
+    // Tests run in parallel: one installs, the others wait for it.
+    static INSTALL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = INSTALL.lock().unwrap_or_else(|e| e.into_inner());
+    let venv = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .unwrap()
+        .join("readers-venv");
+    let requirements = root().join("tests/readers/requirements.txt");
+    let wanted = std::fs::read_to_string(&requirements).unwrap();
+    let marker = venv.join("installed-requirements.txt");
+    if std::fs::read_to_string(&marker).ok().as_deref() != Some(wanted.as_str()) {
+        let ok = |c: &mut Command| c.status().is_ok_and(|s| s.success());
+        assert!(
+            ok(Command::new("python3").args(["-m", "venv"]).arg(&venv)),
+            "python3 -m venv {} failed",
+            venv.display()
+        );
+        assert!(
+            ok(Command::new(venv.join("bin/pip"))
+                .args(["install", "--quiet", "--disable-pip-version-check", "-r"])
+                .arg(&requirements)),
+            "pip install -r {} failed (the readers come from PyPI)",
+            requirements.display()
+        );
+        std::fs::write(&marker, wanted).unwrap();
+    }
+    venv
 }
 
 /// A fresh scratch folder under the target directory.

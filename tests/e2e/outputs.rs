@@ -2,7 +2,7 @@
 //! by the reference readers of each format (tests/readers/check_outputs.py), which this test
 //! installs from PyPI into target/readers-venv on first use (opt-in: `crate::SYSTEM_TESTS`).
 
-use crate::{root, scratch, waamtwin};
+use crate::{readers, root, scratch, waamtwin};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -47,34 +47,6 @@ fn base64_decode(text: &str) -> Vec<u8> {
 
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
-}
-
-/// A virtual environment with the pinned readers, made once per target directory.
-fn readers() -> PathBuf {
-    let venv = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .parent()
-        .unwrap()
-        .join("readers-venv");
-    let requirements = root().join("tests/readers/requirements.txt");
-    let wanted = std::fs::read_to_string(&requirements).unwrap();
-    let marker = venv.join("installed-requirements.txt");
-    if std::fs::read_to_string(&marker).ok().as_deref() != Some(wanted.as_str()) {
-        let ok = |c: &mut Command| c.status().is_ok_and(|s| s.success());
-        assert!(
-            ok(Command::new("python3").args(["-m", "venv"]).arg(&venv)),
-            "python3 -m venv {} failed",
-            venv.display()
-        );
-        assert!(
-            ok(Command::new(venv.join("bin/pip"))
-                .args(["install", "--quiet", "--disable-pip-version-check", "-r"])
-                .arg(&requirements)),
-            "pip install -r {} failed (the readers come from PyPI)",
-            requirements.display()
-        );
-        std::fs::write(&marker, wanted).unwrap();
-    }
-    venv
 }
 
 /// Every value a run wrote for the wall is physical: in every frame of fields.h5 and every

@@ -72,6 +72,29 @@ pub struct RawLive {
     pub prior: Option<String>,
     #[serde(default = "one_u64")]
     pub seed: u64,
+    /// `[live.opcua]`: the probes read from an OPC UA server instead of the probe file.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub opcua: Option<RawOpcua>,
+}
+
+/// `[live.opcua]`: where the cell publishes its sensors.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawOpcua {
+    /// `opc.tcp://HOST:PORT/PATH`.
+    pub endpoint: String,
+    /// The Unix time of the program's t = 0, s: a value's source timestamp less it is its
+    /// build time.
+    pub time_origin_unix_s: f64,
+    /// One node id per probe, by the probe's name (`tc1 = "ns=2;s=tc1"`).
+    pub nodes: std::collections::BTreeMap<String, String>,
+    /// How often the server is asked to publish what changed, ms.
+    #[serde(default = "hundred")]
+    pub publishing_interval_ms: f64,
+}
+
+fn hundred() -> f64 {
+    100.0
 }
 
 fn five() -> f64 {
@@ -387,6 +410,18 @@ pub struct Live {
     pub voxel_m: Option<f64>,
     /// The calibration.json to take the prior from.
     pub prior: Option<PathBuf>,
+    /// Where the probes are read from when not from the probe file.
+    pub opcua: Option<Opcua>,
+}
+
+/// `[live.opcua]`, checked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Opcua {
+    pub endpoint: String,
+    pub time_origin_unix_s: f64,
+    /// (probe index, node id) for each probe the server publishes, in probe order.
+    pub nodes: Vec<(usize, String)>,
+    pub publishing_interval_s: f64,
 }
 
 impl ReplayScenario {
@@ -481,7 +516,11 @@ impl ReplayScenario {
                 Some(k) => Some(calibrate(k, &raw, &thermal_start(&raw), &c)?),
                 None => None,
             },
-            live: raw.live.as_ref().map(|l| live(l, &c, base)).transpose()?,
+            live: raw
+                .live
+                .as_ref()
+                .map(|l| live(l, raw.probes.as_ref(), &c, base))
+                .transpose()?,
             raw,
         })
     }
@@ -704,12 +743,13 @@ impl Default for Live {
             stall_s: 30.0,
             voxel_m: None,
             prior: None,
+            opcua: None,
         }
     }
 }
 
 /// `[live]`, each key checked.
-fn live(l: &RawLive, c: &Checker, base: &Path) -> Result<Live> {
+fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Result<Live> {
     if !(2..=256).contains(&l.ensemble) {
         return Err(c.fail("live", "ensemble", l.ensemble, "2 to 256 members"));
     }
@@ -772,6 +812,79 @@ fn live(l: &RawLive, c: &Checker, base: &Path) -> Result<Live> {
         stall_s: l.stall_s,
         voxel_m: l.voxel_mm.map(|v| v * 1e-3),
         prior: l.prior.as_ref().map(|p| base.join(p)),
+        opcua: l
+            .opcua
+            .as_ref()
+            .map(|o| opcua(o, probes, c))
+            .transpose()?,
+    })
+}
+
+/// `[live.opcua]`: an `opc.tcp` endpoint, a time origin, and a node for known probes only.
+fn opcua(o: &RawOpcua, probes: Option<&RawProbes>, c: &Checker) -> Result<Opcua> {
+    const SECTION: &str = "live.opcua";
+    if !o.endpoint.starts_with("opc.tcp://") {
+        return Err(c.fail(
+            SECTION,
+            "endpoint",
+            format!("\"{}\"", o.endpoint),
+            "an opc.tcp://HOST:PORT address",
+        ));
+    }
+    c.range(
+        SECTION,
+        "time_origin_unix_s",
+        o.time_origin_unix_s,
+        0.0,
+        1e11,
+        "a Unix time in s",
+    )?;
+    c.range(
+        SECTION,
+        "publishing_interval_ms",
+        o.publishing_interval_ms,
+        1.0,
+        60_000.0,
+        "1 to 60000 ms",
+    )?;
+    let names: Vec<&str> = probes.map_or(Vec::new(), |p| {
+        p.points.iter().map(|q| q.name.as_str()).collect()
+    });
+    let mut nodes = Vec::with_capacity(o.nodes.len());
+    for (name, node) in &o.nodes {
+        let Some(k) = names.iter().position(|n| n == name) else {
+            return Err(c.fail_text(
+                SECTION,
+                "nodes",
+                format!(
+                    "nodes.{name}: no probe of that name; expected one of [probes] points \
+                     ({})",
+                    names.join(", ")
+                ),
+            ));
+        };
+        if node.trim().is_empty() {
+            return Err(c.fail_text(
+                SECTION,
+                "nodes",
+                format!("nodes.{name} is empty; expected a node id such as \"ns=2;s={name}\""),
+            ));
+        }
+        nodes.push((k, node.clone()));
+    }
+    if nodes.is_empty() {
+        return Err(c.fail_text(
+            SECTION,
+            "nodes",
+            "nodes is empty; expected a node id for at least one probe",
+        ));
+    }
+    nodes.sort();
+    Ok(Opcua {
+        endpoint: o.endpoint.clone(),
+        time_origin_unix_s: o.time_origin_unix_s,
+        nodes,
+        publishing_interval_s: o.publishing_interval_ms * 1e-3,
     })
 }
 

@@ -9,6 +9,8 @@
 //! or on Ctrl-C; a killed run goes on with `--resume` from its last checkpoint and writes
 //! what an uninterrupted one does.
 
+#[cfg(feature = "opcua")]
+pub mod opcua;
 pub mod tail;
 
 use super::checkpoint;
@@ -58,6 +60,79 @@ struct Counters {
     lag_n: usize,
     /// Data times at which a reading was fed more than `BEHIND_S` after it was read.
     behind_at_s: Vec<f64>,
+    /// What the OPC UA subscription met (repeats, incomplete rows, losses, reconnects).
+    #[serde(default)]
+    opcua: serde_json::Value,
+}
+
+/// Where the readings come from: the probe file as the logger writes it, or the cell's OPC UA
+/// server.
+enum Source {
+    File(Tail),
+    #[cfg(feature = "opcua")]
+    Opcua(opcua::Subscription),
+}
+
+/// What one look at the source brought: a file's lines, still to be read, or rows.
+enum Brought {
+    Lines(Vec<(Mark, String)>),
+    Rows(Vec<Row>),
+}
+
+impl Source {
+    fn open(p: &Probes, live: &Live, mark: Mark, data_s: Option<f64>) -> Result<Source> {
+        let Some(o) = &live.opcua else {
+            return Ok(Source::File(Tail::new(&p.file, mark)));
+        };
+        #[cfg(feature = "opcua")]
+        {
+            let mut sub = opcua::Subscription::start(o, p.points.len()).map_err(Error::input)?;
+            sub.after(data_s);
+            Ok(Source::Opcua(sub))
+        }
+        #[cfg(not(feature = "opcua"))]
+        {
+            let _ = (o, data_s);
+            Err(Error::input(
+                "[live.opcua]: this waamtwin was built without OPC UA (feature \"opcua\")",
+            ))
+        }
+    }
+
+    /// The file, or the endpoint, as messages name it.
+    fn name(&self, p: &Probes, live: &Live) -> String {
+        match (self, &live.opcua) {
+            (Source::File(_), _) | (_, None) => p.file.display().to_string(),
+            #[cfg(feature = "opcua")]
+            (Source::Opcua(_), Some(o)) => o.endpoint.clone(),
+        }
+    }
+
+    /// What is new, and lines that say what happened to the source.
+    fn look(&mut self, name: &str, c: &mut Counters) -> Result<(Brought, Vec<String>)> {
+        match self {
+            Source::File(tail) => {
+                let look = tail
+                    .look()
+                    .map_err(|e| Error::failure(format!("cannot read {name}: {e}")))?;
+                let said: Vec<String> = look
+                    .restarted
+                    .map(|why| format!("{why}; read again from its start"))
+                    .into_iter()
+                    .collect();
+                c.restarts.extend(said.iter().map(|l| format!("{name}: {l}")));
+                Ok((Brought::Lines(look.lines), said))
+            }
+            #[cfg(feature = "opcua")]
+            Source::Opcua(sub) => {
+                let (rows, said) = sub
+                    .look()
+                    .map_err(|e| Error::failure(format!("OPC UA {name}: {e}")))?;
+                c.opcua = serde_json::to_value(&sub.counts).unwrap_or_default();
+                Ok((Brought::Rows(rows), said))
+            }
+        }
+    }
 }
 
 /// The priors: `[live] prior`'s calibration.json where given, else `[calibrate]`'s ranges.
@@ -185,7 +260,8 @@ pub fn run(
             Counters::default(),
         ),
     };
-    let mut tail = Tail::new(&p.file, mark);
+    let mut source = Source::open(&p, &live, mark, follower.data_s())?;
+    let source_name = source.name(&p, &live);
     let mut dir = RunDir::create(out)?;
     let names = names(&p);
     // One handler for the process (a second would be refused), one flag every run reads.
@@ -205,21 +281,19 @@ pub fn run(
         if INTERRUPTED.load(Ordering::SeqCst) {
             break "interrupted (Ctrl-C)";
         }
-        let look = tail
-            .look()
-            .map_err(|e| Error::failure(format!("cannot read {}: {e}", p.file.display())))?;
+        let (brought, said) = source.look(&source_name, &mut counters)?;
         let read_at = Instant::now();
-        if let Some(why) = look.restarted {
-            let line = format!("{}: {why}; read again from its start", p.file.display());
-            eprintln!("follow: {line}");
-            counters.restarts.push(line);
+        for line in said {
+            eprintln!("follow: {source_name}: {line}");
         }
-        let fresh = !look.lines.is_empty();
+        let fresh = match &brought {
+            Brought::Lines(l) => !l.is_empty(),
+            Brought::Rows(r) => !r.is_empty(),
+        };
         if fresh {
             if stalled {
                 eprintln!(
-                    "follow: {}: readings again after {:.0} s",
-                    p.file.display(),
+                    "follow: {source_name}: readings again after {:.0} s",
                     last_new.elapsed().as_secs_f64()
                 );
                 if let Some(s) = counters.stalls.last_mut() {
@@ -230,21 +304,25 @@ pub fn run(
             last_new = Instant::now();
         }
         let done = |f: &Follower| f.data_s().is_some_and(|d| d >= program_end + longest);
-        for (mark, text) in look.lines {
+        let rows: Vec<(Mark, Option<Row>)> = match brought {
+            Brought::Lines(lines) => lines
+                .into_iter()
+                .map(|(mark, text)| {
+                    let row = parse(&mut counters, &p, &columns, (mark.lines, &text));
+                    (mark, row)
+                })
+                .collect(),
+            Brought::Rows(rows) => rows.into_iter().map(|r| (Mark::default(), Some(r))).collect(),
+        };
+        for (mark, row) in rows {
             // Rows past the end are left unread: where a run ends does not hang on how the
-            // file was cut into looks.
+            // source was cut into looks.
             if done(&follower) {
                 break;
             }
-            feed(
-                &mut follower,
-                &mut counters,
-                &p,
-                &columns,
-                &s,
-                (mark.lines, &text),
-                read_at,
-            )?;
+            if let Some(row) = row {
+                feed(&mut follower, &mut counters, row, (&s, &p), read_at)?;
+            }
             // Kept after a row, with where the file is read to after it: a resumed run reads
             // on from the next row whatever the looks were.
             ck.save_if_due("follow", || {
@@ -274,10 +352,8 @@ pub fn run(
             stalled = true;
             let at = follower.data_s().unwrap_or(f64::NAN);
             eprintln!(
-                "follow: {}: no new reading for {:.0} s (data at t = {at:.1} s); the twin keeps \
-                 its state and waits",
-                p.file.display(),
-                idle
+                "follow: {source_name}: no new reading for {idle:.0} s (data at t = {at:.1} s); \
+                 the twin keeps its state and waits"
             );
             counters.stalls.push((at, idle));
         }
@@ -296,30 +372,36 @@ pub fn run(
     Ok(summary(&follower, &counters, ending))
 }
 
-/// Read line `n` of the probe file and feed its row (a line that does not read, or a row
-/// read again after the file restarted, is counted and skipped).
-fn feed(
-    follower: &mut Follower,
-    counters: &mut Counters,
-    p: &Probes,
-    columns: &[usize],
-    s: &ReplayScenario,
-    (n, text): (usize, &str),
-    read_at: Instant,
-) -> Result<()> {
-    let (t, mut values) = match probes::line(text, n, p.time_column, columns) {
-        Ok(Line::Nothing) => return Ok(()),
-        Ok(Line::Row(t, v)) => (t, v),
+/// A row: build time, s, and a reading per probe (None where it has none).
+type Row = (f64, Vec<Option<f64>>);
+
+/// Line `n` of the probe file as a row; a line that does not read is named, counted and
+/// skipped (None).
+fn parse(c: &mut Counters, p: &Probes, columns: &[usize], (n, text): (usize, &str)) -> Option<Row> {
+    match probes::line(text, n, p.time_column, columns) {
+        Ok(Line::Nothing) => None,
+        Ok(Line::Row(t, v)) => Some((t, v)),
         Err(e) => {
             let line = format!("{} line {n}: {e}", p.file.display());
             eprintln!("follow: skipped {line}");
-            counters.malformed += 1;
-            if counters.malformed_lines.len() < 20 {
-                counters.malformed_lines.push(line);
+            c.malformed += 1;
+            if c.malformed_lines.len() < 20 {
+                c.malformed_lines.push(line);
             }
-            return Ok(());
+            None
         }
-    };
+    }
+}
+
+/// Feed a row to the engine (one read again after the source restarted is counted and
+/// skipped).
+fn feed(
+    follower: &mut Follower,
+    counters: &mut Counters,
+    (t, mut values): Row,
+    (s, p): (&ReplayScenario, &Probes),
+    read_at: Instant,
+) -> Result<()> {
     if !counters.restarts.is_empty() && follower.data_s().is_some_and(|d| t <= d) {
         counters.reread += 1;
         return Ok(());
@@ -606,6 +688,7 @@ fn report(
             "read_again": c.reread,
         },
         "restarts": c.restarts,
+        "opcua": c.opcua,
         "stalls": c.stalls.iter().map(|s| json!({"at_data_s": s.0, "wall_s": s.1}))
             .collect::<Vec<_>>(),
         "data_s": f.data_s(),
