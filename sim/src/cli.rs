@@ -70,6 +70,11 @@ pub enum Command {
         /// until the data reach the program's end, or Ctrl-C).
         #[arg(long)]
         until_idle_s: Option<f64>,
+        /// Stream the recording to a running rerun viewer as it is written (its gRPC URL;
+        /// default rerun+http://127.0.0.1:9876/proxy, the viewer's own).
+        #[arg(long, value_name = "URL", num_args = 0..=1,
+              default_missing_value = "rerun+http://127.0.0.1:9876/proxy")]
+        connect: Option<String>,
         #[command(flatten)]
         checkpoints: crate::commands::checkpoint::Options,
     },

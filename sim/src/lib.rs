@@ -58,9 +58,16 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             scenario,
             out,
             until_idle_s,
+            connect,
             checkpoints,
         } => {
-            let line = commands::follow::run(&scenario, &out, until_idle_s, checkpoints)?;
+            let line = commands::follow::run(
+                &scenario,
+                &out,
+                until_idle_s,
+                connect.as_deref(),
+                checkpoints,
+            )?;
             println!("{line}");
             Ok(())
         }

@@ -302,6 +302,17 @@ fn a_source_paused_for_thirty_seconds_is_followed_on() {
     );
     let out = dir.join("out");
     let child = follow(&scenario, &out, &["--until-idle-s", "60"]);
+    // Mid-pause, run.rrd is being written (under its staged name, renamed at the end).
+    std::thread::sleep(Duration::from_secs(15));
+    let growing = std::fs::read_dir(&out)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .find(|e| e.file_name().to_string_lossy().ends_with("-run.rrd"))
+        .map(|e| e.metadata().unwrap().len());
+    assert!(
+        growing.is_some_and(|n| n > 0),
+        "no run.rrd mid-run: {growing:?}"
+    );
     writer.join().unwrap();
     let (ok, text) = finish(child, Duration::from_secs(300));
     assert!(ok, "{text}");
@@ -494,4 +505,73 @@ fn bad_live_input_is_named() {
         case.join("out").to_str().unwrap(),
     ]);
     crate::assert_input_error(&out, &["[calibrate]", "[live] prior"]);
+}
+
+/// `--connect`: the recording streamed over gRPC to a rerun that saves what it receives
+/// (`rerun --save`, from PyPI: opt-in, `crate::SYSTEM_TESTS`) holds what run.rrd holds: the
+/// readings, the forecasts with their band, the parameters and the alarms.
+#[test]
+fn the_recording_streams_to_a_rerun_viewer_as_the_run_goes() {
+    if !crate::system_tests("the rerun stream (rerun-sdk from PyPI into target/readers-venv)") {
+        return;
+    }
+    let dir = scratch("follow_connect");
+    let (scenario, lines) = small_wall(&dir, "interpass_max_c = 40.0");
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let rerun = crate::readers().join("bin/rerun");
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let got = dir.join("got.rrd");
+    let mut viewer = Command::new(&rerun)
+        .args(["--bind", "127.0.0.1", "--port", &port.to_string(), "--save"])
+        .arg(&got)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start rerun --save");
+    let out = dir.join("out");
+    let url = format!("rerun+http://127.0.0.1:{port}/proxy");
+    let (ok, text) = finish(
+        follow(&scenario, &out, &["--until-idle-s", "2", "--connect", &url]),
+        Duration::from_secs(300),
+    );
+    // What was sent has arrived once the file stops growing (bounded: 30 s).
+    let mut size = 0;
+    for _ in 0..60 {
+        std::thread::sleep(Duration::from_millis(500));
+        let now = std::fs::metadata(&got).map_or(0, |m| m.len());
+        if now > 0 && now == size {
+            break;
+        }
+        size = now;
+    }
+    let _ = viewer.kill();
+    let _ = viewer.wait();
+    assert!(ok, "{text}");
+    assert!(text.contains("alarm"), "{text}");
+    let print = |file: &Path| {
+        let o = Command::new(&rerun)
+            .args(["rrd", "print", "--verbose"])
+            .arg(file)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let (streamed, saved) = (print(&got), print(&out.join("run.rrd")));
+    for entity in [
+        "probes/a/measured_c",
+        "probes/b/forecast_10s/predicted_c",
+        "probes/c/forecast_30s/p95_c",
+        "probes/a/forecast_next_layer/p05_c",
+        "parameters/efficiency/mean",
+        "events",
+        "world/path",
+    ] {
+        assert!(streamed.contains(entity), "the stream lacks {entity}");
+        assert!(saved.contains(entity), "run.rrd lacks {entity}");
+    }
 }

@@ -30,13 +30,19 @@ fn free_port() -> u16 {
 fn scenarios(dir: &Path, port: u16) -> Option<(PathBuf, PathBuf, PathBuf)> {
     let log = validation_file("ornl_srp_waam_calibration/srp4_calibration_log.csv")?;
     let text = std::fs::read_to_string(log).unwrap();
-    let head: String = text.lines().take(ROWS + 1).map(|l| format!("{l}\n")).collect();
+    let head: String = text
+        .lines()
+        .take(ROWS + 1)
+        .map(|l| format!("{l}\n"))
+        .collect();
     let probes = dir.join("log.csv");
     std::fs::write(&probes, head).unwrap();
     let (file, served) = (dir.join("file.toml"), dir.join("opcua.toml"));
     let ornl = root().join("scenarios/ornl_srp_pad.toml");
     scenario_with(&ornl, &probes, "", &file);
-    let nodes: Vec<String> = (1..=10).map(|k| format!("tc{k} = \"ns=2;s=tc{k}\"")).collect();
+    let nodes: Vec<String> = (1..=10)
+        .map(|k| format!("tc{k} = \"ns=2;s=tc{k}\""))
+        .collect();
     let opcua = format!(
         "\n[live.opcua]\nendpoint = \"opc.tcp://127.0.0.1:{port}/waamtwin/\"\n\
          time_origin_unix_s = {ORIGIN_UNIX_S:.1}\nnodes = {{ {} }}\n",
@@ -52,7 +58,12 @@ fn serve(log: &Path, port: u16, from: usize, exit_after: Option<usize>) -> Child
     let mut c = Command::new(readers().join("bin/python"));
     c.arg(root().join("tests/opcua/serve_log.py"))
         .args(["--log", log.to_str().unwrap(), "--port", &port.to_string()])
-        .args(["--origin-unix-s", &format!("{ORIGIN_UNIX_S}"), "--speed", SPEED])
+        .args([
+            "--origin-unix-s",
+            &format!("{ORIGIN_UNIX_S}"),
+            "--speed",
+            SPEED,
+        ])
         .args(["--from-row", &from.to_string(), "--wait-s", "60"]);
     for k in 1..=10 {
         c.args(["--column", &format!("tc{k}={}", k + 1)]);

@@ -14,6 +14,8 @@ mod colour;
 #[cfg(feature = "recording")]
 mod foxglove;
 #[cfg(feature = "recording")]
+pub mod live;
+#[cfg(feature = "recording")]
 mod mcap_json;
 #[cfg(feature = "recording")]
 mod plots;

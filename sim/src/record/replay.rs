@@ -114,7 +114,8 @@ fn rrd(
     dir.commit(&staged, "run.rrd").map(|_| ())
 }
 
-fn mcap(dir: &mut RunDir, title: &str, probes: &[ProbeSeries]) -> Result<()> {
+/// run.mcap of the probes.
+pub fn mcap(dir: &mut RunDir, title: &str, probes: &[ProbeSeries]) -> Result<()> {
     let schema = json!({
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": "waamtwin.ProbeSample",

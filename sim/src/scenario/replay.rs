@@ -812,11 +812,7 @@ fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Re
         stall_s: l.stall_s,
         voxel_m: l.voxel_mm.map(|v| v * 1e-3),
         prior: l.prior.as_ref().map(|p| base.join(p)),
-        opcua: l
-            .opcua
-            .as_ref()
-            .map(|o| opcua(o, probes, c))
-            .transpose()?,
+        opcua: l.opcua.as_ref().map(|o| opcua(o, probes, c)).transpose()?,
     })
 }
 

@@ -120,7 +120,8 @@ impl Source {
                     .map(|why| format!("{why}; read again from its start"))
                     .into_iter()
                     .collect();
-                c.restarts.extend(said.iter().map(|l| format!("{name}: {l}")));
+                c.restarts
+                    .extend(said.iter().map(|l| format!("{name}: {l}")));
                 Ok((Brought::Lines(look.lines), said))
             }
             #[cfg(feature = "opcua")]
@@ -221,6 +222,7 @@ pub fn run(
     scenario: &Path,
     out: &Path,
     until_idle_s: Option<f64>,
+    connect: Option<&str>,
     resume: checkpoint::Options,
 ) -> Result<String> {
     let s = ReplayScenario::load(scenario)?;
@@ -264,6 +266,7 @@ pub fn run(
     let source_name = source.name(&p, &live);
     let mut dir = RunDir::create(out)?;
     let names = names(&p);
+    let mut rec = Recorder::open(&dir, scenario, &r, &p, &priors, connect)?;
     // One handler for the process (a second would be refused), one flag every run reads.
     static INTERRUPTED: AtomicBool = AtomicBool::new(false);
     static HANDLER: std::sync::Once = std::sync::Once::new();
@@ -312,7 +315,10 @@ pub fn run(
                     (mark, row)
                 })
                 .collect(),
-            Brought::Rows(rows) => rows.into_iter().map(|r| (Mark::default(), Some(r))).collect(),
+            Brought::Rows(rows) => rows
+                .into_iter()
+                .map(|r| (Mark::default(), Some(r)))
+                .collect(),
         };
         for (mark, row) in rows {
             // Rows past the end are left unread: where a run ends does not hang on how the
@@ -321,7 +327,14 @@ pub fn run(
                 break;
             }
             if let Some(row) = row {
-                feed(&mut follower, &mut counters, row, (&s, &p), read_at)?;
+                feed(
+                    &mut follower,
+                    &mut counters,
+                    row,
+                    (&s, &p),
+                    read_at,
+                    &mut rec,
+                )?;
             }
             // Kept after a row, with where the file is read to after it: a resumed run reads
             // on from the next row whatever the looks were.
@@ -365,8 +378,9 @@ pub fn run(
     write(
         &mut dir, &follower, &names, &priors, &counters, &clock, ending,
     )?;
+    rec.finish(&mut dir, &follower)?;
     #[cfg(feature = "recording")]
-    record(&mut dir, scenario, &r, &p, &follower)?;
+    record(&mut dir, scenario, &p, &follower)?;
     dir.finish("follow", s.to_json())?;
     folder.close()?;
     Ok(summary(&follower, &counters, ending))
@@ -401,6 +415,7 @@ fn feed(
     (t, mut values): Row,
     (s, p): (&ReplayScenario, &Probes),
     read_at: Instant,
+    rec: &mut Recorder,
 ) -> Result<()> {
     if !counters.restarts.is_empty() && follower.data_s().is_some_and(|d| t <= d) {
         counters.reread += 1;
@@ -415,6 +430,7 @@ fn feed(
         eprintln!("follow: {}", a.line());
     }
     counters.busy_s += before.elapsed().as_secs_f64();
+    rec.row(t, &values, follower)?;
     counters.first_data_s.get_or_insert(t);
     let lag = read_at.elapsed().as_secs_f64();
     counters.lag_max_s = counters.lag_max_s.max(lag);
@@ -426,10 +442,10 @@ fn feed(
     Ok(())
 }
 
-/// probes.png, run.rrd and run.mcap: each probe as measured and as forecast one horizon (the
-/// shortest) before, at the forecasts' targets.
+/// probes.png and run.mcap: each probe as measured and as forecast one horizon (the shortest)
+/// before, at the forecasts' targets.
 #[cfg(feature = "recording")]
-fn record(dir: &mut RunDir, scenario: &Path, r: &Replay, p: &Probes, f: &Follower) -> Result<()> {
+fn record(dir: &mut RunDir, scenario: &Path, p: &Probes, f: &Follower) -> Result<()> {
     let Some(&first) = f.twin.settings.horizons_s.first() else {
         return Ok(());
     };
@@ -472,7 +488,76 @@ fn record(dir: &mut RunDir, scenario: &Path, r: &Replay, p: &Probes, f: &Followe
             samples: s,
         })
         .collect();
-    crate::record::replay::write(dir, &title, &super::replay::tracks(&r.deps), &recorded)
+    crate::record::replay::mcap(dir, &title, &recorded)
+}
+
+/// run.rrd as the run goes ([`crate::record::live`]), where this build records.
+struct Recorder(#[cfg(feature = "recording")] crate::record::live::LiveRecording);
+
+impl Recorder {
+    fn open(
+        dir: &RunDir,
+        scenario: &Path,
+        r: &Replay,
+        p: &Probes,
+        priors: &[Uncertain],
+        connect: Option<&str>,
+    ) -> Result<Recorder> {
+        #[cfg(feature = "recording")]
+        {
+            let title = scenario
+                .file_stem()
+                .map_or("follow".into(), |n| n.to_string_lossy())
+                .to_string();
+            let probes: Vec<(String, [f64; 3])> = p
+                .points
+                .iter()
+                .map(|q| (q.name.clone(), q.position_m.map(|x| x * 1e3)))
+                .collect();
+            let parameters: Vec<&'static str> = priors.iter().map(|u| u.parameter.key()).collect();
+            let scene = crate::record::live::Scene {
+                title: &format!("{title}: followed live"),
+                tracks: &super::replay::tracks(&r.deps),
+                probes: &probes,
+                parameters: &parameters,
+            };
+            crate::record::live::LiveRecording::open(dir, &scene, connect).map(Recorder)
+        }
+        #[cfg(not(feature = "recording"))]
+        {
+            let _ = (dir, scenario, r, p, priors);
+            match connect {
+                Some(_) => Err(Error::input(
+                    "--connect: this waamtwin was built without recordings (feature \"recording\")",
+                )),
+                None => Ok(Recorder()),
+            }
+        }
+    }
+
+    /// A row's readings (°C), and what the follower made of it.
+    fn row(&mut self, t_s: f64, values_c: &[Option<f64>], f: &Follower) -> Result<()> {
+        #[cfg(feature = "recording")]
+        {
+            self.0.readings(t_s, values_c)?;
+            self.0.progress(&f.progress)?;
+        }
+        #[cfg(not(feature = "recording"))]
+        let _ = (t_s, values_c, f);
+        Ok(())
+    }
+
+    fn finish(self, dir: &mut RunDir, f: &Follower) -> Result<()> {
+        #[cfg(feature = "recording")]
+        {
+            let mut live = self.0;
+            live.progress(&f.progress)?;
+            live.finish(dir)?;
+        }
+        #[cfg(not(feature = "recording"))]
+        let _ = (self, dir, f);
+        Ok(())
+    }
 }
 
 /// Per horizon, over every probe: the forecasts' RMS against what was measured.

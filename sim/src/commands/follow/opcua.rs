@@ -41,7 +41,7 @@ enum Event {
 /// The subscription and the rows it has not yet handed on.
 pub struct Subscription {
     rx: mpsc::Receiver<Event>,
-    _runtime: std::thread::JoinHandle<()>,
+    _client: Option<std::thread::JoinHandle<()>>,
     origin_ticks: i64,
     /// The probe each node reads.
     probe_of: Vec<usize>,
@@ -98,17 +98,30 @@ impl Subscription {
             .spawn(move || runtime.block_on(client(endpoint, nodes, interval, tx)))
             .map_err(|e| format!("cannot start the OPC UA client's thread: {e}"))?;
         let origin_ticks = (o.time_origin_unix_s * 1e7).round() as i64 + UNIX_EPOCH_TICKS;
-        Ok(Subscription {
+        let probe_of = o.nodes.iter().map(|&(k, _)| k).collect();
+        let mut sub = Subscription::on(rx, origin_ticks, probe_of, probes);
+        sub._client = Some(thread);
+        Ok(sub)
+    }
+
+    /// The rows of what comes over `rx`.
+    fn on(
+        rx: mpsc::Receiver<Event>,
+        origin_ticks: i64,
+        probe_of: Vec<usize>,
+        probes: usize,
+    ) -> Subscription {
+        Subscription {
             rx,
-            _runtime: thread,
+            _client: None,
             origin_ticks,
-            probe_of: o.nodes.iter().map(|&(k, _)| k).collect(),
+            latest: vec![None; probe_of.len()],
+            probe_of,
             probes,
-            latest: vec![None; o.nodes.len()],
             pending: BTreeMap::new(),
             handed: None,
             counts: Counts::default(),
-        })
+        }
     }
 
     /// Rows are never handed on at or before `t_s` (a resumed run's last fed row).
@@ -181,12 +194,7 @@ impl Subscription {
 
 /// The client: connect (retrying without end, with back-off), subscribe, and pass on every
 /// value and every change of the connection until the receiver is gone.
-async fn client(
-    endpoint: String,
-    nodes: Vec<NodeId>,
-    interval: Duration,
-    tx: mpsc::Sender<Event>,
-) {
+async fn client(endpoint: String, nodes: Vec<NodeId>, interval: Duration, tx: mpsc::Sender<Event>) {
     let pki = std::env::temp_dir().join(format!("waamtwin-opcua-pki-{}", std::process::id()));
     let built = ClientBuilder::new()
         .application_name("waamtwin follow")
@@ -265,8 +273,10 @@ async fn subscribe(
     let sender = std::sync::Mutex::new(tx);
     let callback = DataChangeCallback::new(move |dv: DataValue, item: &MonitoredItem| {
         let node = item.client_handle() as usize - 1;
-        let (Some(v), Some(ts)) = (dv.value.as_ref().and_then(|v| v.as_f64()), dv.source_timestamp)
-        else {
+        let (Some(v), Some(ts)) = (
+            dv.value.as_ref().and_then(|v| v.as_f64()),
+            dv.source_timestamp,
+        ) else {
             return;
         };
         if v.is_finite()
@@ -319,5 +329,49 @@ async fn subscribe(
             "the server refused to monitor {}",
             refused.join(", ")
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Values of two nodes arrive interleaved and split across looks: a row is handed on once
+    /// both nodes have passed its time, in time order, on the build's clock; a value sent again
+    /// after a reconnection is counted and not fed; a node reads its probe's place in the row.
+    #[test]
+    fn rows_are_whole_in_time_order_and_repeats_are_counted() {
+        let (tx, rx) = mpsc::channel();
+        let origin = 1_000_000_000;
+        let mut sub = Subscription::on(rx, origin, vec![2, 0], 3);
+        let at = |t: f64| origin + (t * 1e7) as i64;
+        let value = |node, t, value| Event::Value {
+            node,
+            ticks: at(t),
+            value,
+        };
+        tx.send(value(0, 1.0, 10.0)).unwrap();
+        tx.send(value(0, 2.0, 11.0)).unwrap();
+        tx.send(value(1, 1.0, 20.0)).unwrap();
+        let (rows, said) = sub.look().unwrap();
+        assert!(said.is_empty());
+        assert_eq!(rows, vec![(1.0, vec![Some(20.0), None, Some(10.0)])]);
+        tx.send(Event::Lost("BadCommunicationError".into()))
+            .unwrap();
+        tx.send(Event::Reconnected).unwrap();
+        tx.send(value(1, 1.0, 20.0)).unwrap();
+        tx.send(value(1, 2.0, 21.0)).unwrap();
+        tx.send(value(0, 2.0, 11.0)).unwrap();
+        let (rows, said) = sub.look().unwrap();
+        assert_eq!(said.len(), 2);
+        assert_eq!(rows, vec![(2.0, vec![Some(21.0), None, Some(11.0)])]);
+        assert_eq!(sub.counts.repeated, 2);
+        assert_eq!(sub.counts.reconnects, 1);
+        // A resumed run's rows up to its last fed are never handed on again.
+        sub.after(Some(3.0));
+        tx.send(value(0, 3.0, 12.0)).unwrap();
+        tx.send(value(1, 3.0, 22.0)).unwrap();
+        assert!(sub.look().unwrap().0.is_empty());
+        assert_eq!(sub.counts.repeated, 4);
     }
 }

@@ -1,0 +1,221 @@
+//! `follow`'s run.rrd, written as the run goes (at `.tmp-PID-run.rrd` in the output folder,
+//! renamed to run.rrd at its end) and, with `--connect [URL]`, streamed to a running rerun
+//! viewer over gRPC at the same time (rerun 0.36: one recording, a file sink and a gRPC sink).
+//!
+//! On the `sim_time` timeline (seconds of build time): `probes/NAME/measured_c` (every reading
+//! as it arrives), `probes/NAME/forecast_H/{predicted_c,p05_c,p95_c}` (each forecast at its
+//! target time, H the horizon: `60s`, `300s`, `next_layer`), `parameters/NAME/{mean,p05,p95}`
+//! (the ensemble's parameters settling), `events` (a warning per alarm, with its advice), and
+//! static `world/path` and `world/probes` (mm). The layout puts the path beside six probes'
+//! plots and the parameters.
+
+use super::rerun_layout::{Node, view};
+use crate::error::{Error, Result};
+use crate::output::RunDir;
+use crate::pipeline::twin::follow::{Alarm, Forecast, Progress};
+use rerun::RecordingStream;
+use std::path::PathBuf;
+
+const TIMELINE: &str = "sim_time";
+/// The rerun viewer's own gRPC address, where `--connect` sends without a URL.
+pub const DEFAULT_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
+
+fn fail(e: impl std::fmt::Display) -> Error {
+    Error::failure(format!("run.rrd: {e}"))
+}
+
+/// The recording and how far into the follower's lists it has logged.
+pub struct LiveRecording {
+    rec: RecordingStream,
+    staged: PathBuf,
+    probes: Vec<String>,
+    parameters: Vec<String>,
+    forecasts: usize,
+    settling: usize,
+    alarms: usize,
+}
+
+/// What the recording shows that does not change.
+pub struct Scene<'a> {
+    pub title: &'a str,
+    /// The program's tracks, mm.
+    pub tracks: &'a [Vec<[f64; 3]>],
+    /// Each probe's name and place, mm.
+    pub probes: &'a [(String, [f64; 3])],
+    pub parameters: &'a [&'static str],
+}
+
+impl LiveRecording {
+    /// Open run.rrd (and the stream to `connect`, a rerun gRPC URL) and log the scene.
+    pub fn open(dir: &RunDir, scene: &Scene, connect: Option<&str>) -> Result<LiveRecording> {
+        let staged = dir.stage("run.rrd");
+        let file = rerun::sink::FileSink::new(&staged).map_err(fail)?;
+        let builder = rerun::RecordingStreamBuilder::new("waamtwin");
+        let rec = match connect {
+            None => builder.set_sinks((file,)),
+            Some(url) => {
+                let uri: rerun::external::re_uri::ProxyUri = url.parse().map_err(|e| {
+                    Error::input(format!(
+                        "--connect {url}: {e}; expected a rerun gRPC URL such as {DEFAULT_URL}"
+                    ))
+                })?;
+                builder.set_sinks((file, rerun::sink::GrpcSink::new(uri)))
+            }
+        }
+        .map_err(fail)?;
+        rec.send_recording_name(scene.title).map_err(fail)?;
+        let r = LiveRecording {
+            rec,
+            staged,
+            probes: scene.probes.iter().map(|p| p.0.clone()).collect(),
+            parameters: scene.parameters.iter().map(|p| p.to_string()).collect(),
+            forecasts: 0,
+            settling: 0,
+            alarms: 0,
+        };
+        r.scene(scene)?;
+        Ok(r)
+    }
+
+    fn scene(&self, scene: &Scene) -> Result<()> {
+        let rec = &self.rec;
+        let f32x3 = |p: [f64; 3]| p.map(|x| x as f32);
+        let plots: Vec<(f32, Node)> = super::replay::shown(self.probes.len())
+            .into_iter()
+            .map(|k| {
+                let name = &self.probes[k];
+                let path = format!("probes/{name}/**");
+                (
+                    1.0,
+                    view("TimeSeries", &format!("{name}, °C"), "/", &[path.as_str()]),
+                )
+            })
+            .collect();
+        let params = Node::Column(
+            self.parameters
+                .iter()
+                .map(|p| {
+                    let path = format!("parameters/{p}/**");
+                    (1.0, view("TimeSeries", p, "/", &[path.as_str()]))
+                })
+                .chain([(1.0, view("TextLog", "alarms", "/", &["events"]))])
+                .collect(),
+        );
+        let layout = Node::Row(vec![
+            (2.0, view("3D", "path and probes", "world", &["world/**"])),
+            (3.0, Node::Column(plots)),
+            (2.0, params),
+        ]);
+        super::rerun_layout::send(rec, &layout, TIMELINE).map_err(fail)?;
+        rec.log_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
+            .map_err(fail)?;
+        rec.log_static(
+            "world/path",
+            &rerun::LineStrips3D::new(scene.tracks.iter().map(|t| t.iter().copied().map(f32x3)))
+                .with_colors([rerun::Color::from_rgb(200, 200, 200)])
+                .with_radii([rerun::Radius::new_ui_points(1.0)]),
+        )
+        .map_err(fail)?;
+        rec.log_static(
+            "world/probes",
+            &rerun::Points3D::new(scene.probes.iter().map(|p| f32x3(p.1)))
+                .with_labels(scene.probes.iter().map(|p| p.0.as_str()))
+                .with_colors([rerun::Color::from_rgb(230, 120, 20)])
+                .with_radii([rerun::Radius::new_ui_points(4.0)]),
+        )
+        .map_err(fail)?;
+        for name in &self.probes {
+            self.style(
+                &format!("probes/{name}/measured_c"),
+                "measured",
+                [230, 230, 230],
+            )?;
+        }
+        for p in &self.parameters {
+            self.style(&format!("parameters/{p}/mean"), "mean", [80, 160, 230])?;
+            for q in ["p05", "p95"] {
+                self.style(&format!("parameters/{p}/{q}"), q, [60, 90, 130])?;
+            }
+        }
+        Ok(())
+    }
+
+    fn style(&self, path: &str, name: &str, [r, g, b]: [u8; 3]) -> Result<()> {
+        self.rec
+            .log_static(
+                path,
+                &rerun::SeriesLines::new()
+                    .with_names([name])
+                    .with_colors([rerun::Color::from_rgb(r, g, b)]),
+            )
+            .map_err(fail)
+    }
+
+    fn scalar(&self, path: String, t: f64, v: f64) -> Result<()> {
+        self.rec.set_duration_secs(TIMELINE, t);
+        self.rec.log(path, &rerun::Scalars::single(v)).map_err(fail)
+    }
+
+    /// A row's readings, °C, as they arrive.
+    pub fn readings(&self, t_s: f64, values_c: &[Option<f64>]) -> Result<()> {
+        for (name, v) in self.probes.iter().zip(values_c) {
+            if let Some(v) = v {
+                self.scalar(format!("probes/{name}/measured_c"), t_s, *v)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// What the follower added since the last call: forecasts, parameters, alarms.
+    pub fn progress(&mut self, p: &Progress) -> Result<()> {
+        for f in &p.forecasts[self.forecasts.min(p.forecasts.len())..] {
+            self.forecast(f)?;
+        }
+        self.forecasts = p.forecasts.len();
+        for &(t, k, mean, sd) in &p.settling[self.settling.min(p.settling.len())..] {
+            let name = &self.parameters[k];
+            self.scalar(format!("parameters/{name}/mean"), t, mean)?;
+            // The normal 5–95 % of the members' spread.
+            self.scalar(format!("parameters/{name}/p05"), t, mean - 1.645 * sd)?;
+            self.scalar(format!("parameters/{name}/p95"), t, mean + 1.645 * sd)?;
+        }
+        self.settling = p.settling.len();
+        for a in &p.alarms[self.alarms.min(p.alarms.len())..] {
+            self.alarm(a)?;
+        }
+        self.alarms = p.alarms.len();
+        Ok(())
+    }
+
+    fn forecast(&self, f: &Forecast) -> Result<()> {
+        let base = format!(
+            "probes/{}/forecast_{}",
+            self.probes[f.probe],
+            match f.horizon.label().parse::<f64>() {
+                Ok(_) => format!("{}s", f.horizon.label()),
+                Err(_) => f.horizon.label(),
+            }
+        );
+        self.scalar(format!("{base}/predicted_c"), f.target_t_s, f.predicted_c)?;
+        self.scalar(format!("{base}/p05_c"), f.target_t_s, f.p05_c)?;
+        self.scalar(format!("{base}/p95_c"), f.target_t_s, f.p95_c)
+    }
+
+    fn alarm(&self, a: &Alarm) -> Result<()> {
+        self.rec.set_duration_secs(TIMELINE, a.made_at_s);
+        self.rec
+            .log(
+                "events",
+                &rerun::TextLog::new(a.line()).with_level(rerun::TextLogLevel::WARN),
+            )
+            .map_err(fail)
+    }
+
+    /// Flush both sinks and put run.rrd in place.
+    pub fn finish(self, dir: &mut RunDir) -> Result<()> {
+        self.rec.flush_blocking().map_err(fail)?;
+        let staged = self.staged.clone();
+        drop(self.rec);
+        dir.commit(&staged, "run.rrd").map(|_| ())
+    }
+}
