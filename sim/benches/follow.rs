@@ -32,6 +32,7 @@ fn main() {
             &root.join(scenario),
             &out,
             Some(1.0),
+            None,
             sim::commands::checkpoint::Options::default(),
         )
         .unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -155,5 +155,8 @@ fn the_ornl_log_over_opcua_forecasts_as_the_file_does_through_a_server_restart()
     // Rows from 150 to the last the client had before the kill came twice, ten values each
     // (the last few rows may die in flight with the server, and come once, from the second).
     let repeated = v["opcua"]["repeated"].as_u64().unwrap();
-    assert!(repeated % 10 == 0 && (400..=510).contains(&repeated), "{v}");
+    assert!(
+        repeated.is_multiple_of(10) && (400..=510).contains(&repeated),
+        "{v}"
+    );
 }

@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::output::RunDir;
 use crate::pipeline::calibrate::{self, Task};
 use crate::pipeline::checkpoint::Checkpoints;
-use crate::pipeline::replay::{self, compare, overall, sampling_interval};
+use crate::pipeline::replay::{compare, overall, sampling_interval};
 use crate::progress::Stage;
 use crate::scenario::replay::ReplayScenario;
 use serde_json::json;
@@ -138,7 +138,7 @@ pub fn run(
     )?;
     #[cfg(feature = "recording")]
     {
-        let series: Vec<(&str, &[replay::Sample])> = compared
+        let series: Vec<(&str, &[crate::pipeline::replay::Sample])> = compared
             .iter()
             .map(|c| (c.name.as_str(), c.samples.as_slice()))
             .collect();

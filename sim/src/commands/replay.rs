@@ -10,7 +10,7 @@ use crate::measured::{gcode, machine_log, probes, table, toolpath};
 use crate::output::RunDir;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{
-    self, Compared, Pass, Replay, Sample, in_celsius, overall, sampling_interval,
+    self, Compared, Pass, Replay, in_celsius, overall, sampling_interval,
 };
 use crate::progress::Stage;
 use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
@@ -18,7 +18,6 @@ use serde_json::json;
 use std::fmt::Write;
 use std::path::Path;
 use thermal::material::Material;
-use thermal::schedule::Deposit;
 
 /// The replay of scenario `s`, its files read: the toolpath, the materials; the probes kept
 /// every `every_s`.
@@ -114,7 +113,7 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         let title = scenario
             .file_stem()
             .map_or("replay".into(), |n| n.to_string_lossy().into_owned());
-        let series: Vec<(&str, &[Sample])> = compared
+        let series: Vec<(&str, &[crate::pipeline::replay::Sample])> = compared
             .iter()
             .map(|c| (c.name.as_str(), c.samples.as_slice()))
             .collect();
@@ -148,7 +147,7 @@ pub(crate) fn read(path: &Path) -> Result<String> {
 
 /// The laid path as polylines, one a track (mm).
 #[cfg(feature = "recording")]
-pub(crate) fn tracks(deps: &[Deposit]) -> Vec<Vec<[f64; 3]>> {
+pub(crate) fn tracks(deps: &[thermal::schedule::Deposit]) -> Vec<Vec<[f64; 3]>> {
     let mut out: Vec<Vec<[f64; 3]>> = Vec::new();
     for (i, d) in deps.iter().enumerate() {
         let mm = |p: [f64; 3]| p.map(|x| x * 1e3);

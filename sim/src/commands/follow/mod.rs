@@ -76,6 +76,7 @@ enum Source {
 /// What one look at the source brought: a file's lines, still to be read, or rows.
 enum Brought {
     Lines(Vec<(Mark, String)>),
+    #[cfg_attr(not(feature = "opcua"), allow(dead_code))]
     Rows(Vec<Row>),
 }
 
@@ -100,12 +101,10 @@ impl Source {
     }
 
     /// The file, or the endpoint, as messages name it.
-    fn name(&self, p: &Probes, live: &Live) -> String {
-        match (self, &live.opcua) {
-            (Source::File(_), _) | (_, None) => p.file.display().to_string(),
-            #[cfg(feature = "opcua")]
-            (Source::Opcua(_), Some(o)) => o.endpoint.clone(),
-        }
+    fn name(p: &Probes, live: &Live) -> String {
+        live.opcua
+            .as_ref()
+            .map_or_else(|| p.file.display().to_string(), |o| o.endpoint.clone())
     }
 
     /// What is new, and lines that say what happened to the source.
@@ -263,7 +262,7 @@ pub fn run(
         ),
     };
     let mut source = Source::open(&p, &live, mark, follower.data_s())?;
-    let source_name = source.name(&p, &live);
+    let source_name = Source::name(&p, &live);
     let mut dir = RunDir::create(out)?;
     let names = names(&p);
     let mut rec = Recorder::open(&dir, scenario, &r, &p, &priors, connect)?;
