@@ -5,9 +5,11 @@
 //! On the `sim_time` timeline (seconds of build time): `probes/NAME/measured_c` (every reading
 //! as it arrives), `probes/NAME/forecast_H/{predicted_c,p05_c,p95_c}` (each forecast at its
 //! target time, H the horizon: `60s`, `300s`, `next_layer`), `parameters/NAME/{mean,p05,p95}`
-//! (the ensemble's parameters settling), `events` (a warning per alarm, with its advice), and
-//! static `world/path` and `world/probes` (mm). The layout puts the path beside six probes'
-//! plots and the parameters.
+//! (the ensemble's parameters settling), `events` (a warning per alarm, with its advice),
+//! `world/part` (the part's top surface, one point per voxel column, coloured by the members'
+//! mean temperature, each point carrying its `temperature_c`; every [`FIELD_EVERY_S`] of build
+//! time), and static `world/path` and `world/probes` (mm). The layout puts the part beside six
+//! probes' plots and the parameters.
 
 use super::rerun_layout::{Node, view};
 use crate::error::{Error, Result};
@@ -17,6 +19,11 @@ use rerun::RecordingStream;
 use std::path::PathBuf;
 
 const TIMELINE: &str = "sim_time";
+/// Build seconds between two views of the part's temperature.
+pub const FIELD_EVERY_S: f64 = 60.0;
+/// The colour scale's green: the interpass limit where none is set, °C.
+const INTERPASS_C: f64 = 150.0;
+
 /// The rerun viewer's own gRPC address, where `--connect` sends without a URL.
 pub const DEFAULT_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
 
@@ -33,6 +40,9 @@ pub struct LiveRecording {
     forecasts: usize,
     settling: usize,
     alarms: usize,
+    colours: (f64, f64),
+    /// The build time of the last view of the part.
+    pub field_at_s: Option<f64>,
 }
 
 /// What the recording shows that does not change.
@@ -43,6 +53,9 @@ pub struct Scene<'a> {
     /// Each probe's name and place, mm.
     pub probes: &'a [(String, [f64; 3])],
     pub parameters: &'a [&'static str],
+    pub ambient_c: f64,
+    /// Where the colour scale turns green, °C.
+    pub interpass_c: Option<f64>,
 }
 
 impl LiveRecording {
@@ -72,6 +85,8 @@ impl LiveRecording {
             forecasts: 0,
             settling: 0,
             alarms: 0,
+            colours: (scene.ambient_c, scene.interpass_c.unwrap_or(INTERPASS_C)),
+            field_at_s: None,
         };
         r.scene(scene)?;
         Ok(r)
@@ -102,7 +117,10 @@ impl LiveRecording {
                 .collect(),
         );
         let layout = Node::Row(vec![
-            (2.0, view("3D", "path and probes", "world", &["world/**"])),
+            (
+                2.0,
+                view("3D", "part, path and probes", "world", &["world/**"]),
+            ),
             (3.0, Node::Column(plots)),
             (2.0, params),
         ]);
@@ -184,6 +202,34 @@ impl LiveRecording {
             self.alarm(a)?;
         }
         self.alarms = p.alarms.len();
+        Ok(())
+    }
+
+    /// The part at `t_s`: its top surface's points (mm) at their temperatures (°C).
+    pub fn field(&mut self, t_s: f64, points_mm: &[[f64; 3]], temps_c: &[f64]) -> Result<()> {
+        let (ambient, interpass) = self.colours;
+        self.rec.set_duration_secs(TIMELINE, t_s);
+        self.rec
+            .log(
+                "world/part",
+                &rerun::Points3D::new(points_mm.iter().map(|p| p.map(|x| x as f32)))
+                    .with_colors(temps_c.iter().map(|&t| {
+                        let [r, g, b, a] = super::temperature_colour(t, ambient, interpass);
+                        rerun::Color::from_unmultiplied_rgba(r, g, b, a)
+                    }))
+                    .with_radii([rerun::Radius::new_scene_units(1.0)]),
+            )
+            .map_err(fail)?;
+        self.rec
+            .log(
+                "world/part",
+                &rerun::AnyValues::default().with_component::<rerun::components::Scalar>(
+                    "temperature_c",
+                    temps_c.iter().copied(),
+                ),
+            )
+            .map_err(fail)?;
+        self.field_at_s = Some(t_s);
         Ok(())
     }
 

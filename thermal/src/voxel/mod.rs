@@ -929,6 +929,15 @@ impl VoxelModel {
         Ok(run.finish())
     }
 
+    /// The active voxels open to the top (no active voxel above), with their centres (m): the
+    /// part as seen from above, what a view of its temperature shows.
+    pub fn top_surface(&self) -> Vec<(u32, [f64; 3])> {
+        (0..self.cell.len() as u32)
+            .filter(|&v| self.neighbours[5][v as usize] == v)
+            .map(|v| (v, self.centre_of(v)))
+            .collect()
+    }
+
     /// The centre of voxel v, m.
     fn centre_of(&self, v: u32) -> [f64; 3] {
         let f = self.cell[v as usize];
@@ -1452,6 +1461,28 @@ mod tests {
             }
             kernels_agree(&deps, &settings);
         }
+    }
+
+    /// The top surface is exactly the active voxels with no active voxel above them, on the
+    /// bare plate (one per column) and after the wall is laid on it.
+    #[test]
+    fn the_top_surface_is_what_has_nothing_above() {
+        let (deps, settings) = three_revolutions(100.0);
+        let mut m = VoxelModel::new(&deps, &settings).unwrap();
+        let check = |m: &VoxelModel| {
+            let surface: Vec<u32> = m.top_surface().into_iter().map(|s| s.0).collect();
+            for v in 0..m.cell.len() as u32 {
+                let c = m.centre_of(v);
+                assert_eq!(m.voxel_at(c), Some(v));
+                let above = m.voxel_at([c[0], c[1], c[2] + m.settings.size]);
+                assert_eq!(surface.contains(&v), above.is_none(), "voxel {v} at {c:?}");
+            }
+            surface.len()
+        };
+        assert!(check(&m) >= 2500, "a 50 × 50 plate");
+        m.lay_all(&deps);
+        assert!(m.active() > m.plate_voxels);
+        check(&m);
     }
 
     /// The plain and the vector kernel over a whole run of `deps`.

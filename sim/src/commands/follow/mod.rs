@@ -265,7 +265,8 @@ pub fn run(
     let source_name = Source::name(&p, &live);
     let mut dir = RunDir::create(out)?;
     let names = names(&p);
-    let mut rec = Recorder::open(&dir, scenario, &r, &p, &priors, connect)?;
+    let interpass_c = live.twin.interpass_max_k.map(|k| k - C);
+    let mut rec = Recorder::open(&dir, scenario, &r, &p, &priors, interpass_c, connect)?;
     // One handler for the process (a second would be refused), one flag every run reads.
     static INTERRUPTED: AtomicBool = AtomicBool::new(false);
     static HANDLER: std::sync::Once = std::sync::Once::new();
@@ -490,6 +491,29 @@ fn record(dir: &mut RunDir, scenario: &Path, p: &Probes, f: &Follower) -> Result
     crate::record::replay::mcap(dir, &title, &recorded)
 }
 
+/// The part's top surface (mm) at the members' mean temperature (°C); None on a model
+/// without voxels.
+#[cfg(feature = "recording")]
+fn part(f: &Follower) -> Option<(Vec<[f64; 3]>, Vec<f64>)> {
+    let members = f.twin.read_members(&|run| match run {
+        thermal::ModelRun::Voxel(v) => {
+            let m = v.model();
+            m.top_surface()
+                .into_iter()
+                .map(|(k, c)| (c.map(|x| x * 1e3), m.temperature(k) - C))
+                .collect()
+        }
+        _ => Vec::new(),
+    });
+    // Every member lays the same voxels (one schedule), in the same order.
+    let first = members.first().filter(|m| !m.is_empty())?;
+    let n = members.len() as f64;
+    let temps = (0..first.len())
+        .map(|i| members.iter().map(|m| m[i].1).sum::<f64>() / n)
+        .collect();
+    Some((first.iter().map(|p| p.0).collect(), temps))
+}
+
 /// run.rrd as the run goes ([`crate::record::live`]), where this build records.
 struct Recorder(#[cfg(feature = "recording")] crate::record::live::LiveRecording);
 
@@ -500,6 +524,7 @@ impl Recorder {
         r: &Replay,
         p: &Probes,
         priors: &[Uncertain],
+        interpass_c: Option<f64>,
         connect: Option<&str>,
     ) -> Result<Recorder> {
         #[cfg(feature = "recording")]
@@ -519,12 +544,14 @@ impl Recorder {
                 tracks: &super::replay::tracks(&r.deps),
                 probes: &probes,
                 parameters: &parameters,
+                ambient_c: r.values.thermal.ambient_k - C,
+                interpass_c: interpass_c,
             };
             crate::record::live::LiveRecording::open(dir, &scene, connect).map(Recorder)
         }
         #[cfg(not(feature = "recording"))]
         {
-            let _ = (dir, scenario, r, p, priors);
+            let _ = (dir, scenario, r, p, priors, interpass_c);
             match connect {
                 Some(_) => Err(Error::input(
                     "--connect: this waamtwin was built without recordings (feature \"recording\")",
@@ -540,6 +567,12 @@ impl Recorder {
         {
             self.0.readings(t_s, values_c)?;
             self.0.progress(&f.progress)?;
+            let every = crate::record::live::FIELD_EVERY_S;
+            if self.0.field_at_s.is_none_or(|at| t_s >= at + every)
+                && let Some((points, temps)) = part(f)
+            {
+                self.0.field(t_s, &points, &temps)?;
+            }
         }
         #[cfg(not(feature = "recording"))]
         let _ = (t_s, values_c, f);
