@@ -545,7 +545,7 @@ impl Recorder {
                 probes: &probes,
                 parameters: &parameters,
                 ambient_c: r.values.thermal.ambient_k - C,
-                interpass_c: interpass_c,
+                interpass_c,
             };
             crate::record::live::LiveRecording::open(dir, &scene, connect).map(Recorder)
         }
