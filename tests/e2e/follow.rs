@@ -575,3 +575,75 @@ fn the_recording_streams_to_a_rerun_viewer_as_the_run_goes() {
         assert!(saved.contains(entity), "run.rrd lacks {entity}");
     }
 }
+
+/// `[live.machine_log]`: the small wall's log says the arc stopped 4 s into the third track for
+/// 16 s and finished it after, the rest of the build 16 s late. The log wins: follow.json counts
+/// the stop mid-pass and the 16 s, the next layers' starts are forecast where the cell put them
+/// (76, 96, 116 s), and the run follows the build to its late end; without the machine log the
+/// same readings are forecast at the program's starts (60, 80, 100 s).
+#[test]
+fn the_machine_log_wins_over_the_program() {
+    let dir = scratch("follow_machine");
+    let (plain, lines) = small_wall(&dir, "");
+    // Arc on over [start, end) of each track as the cell ran it.
+    let on = [
+        (0.0, 8.0),
+        (20.0, 28.0),
+        (40.0, 44.0),
+        (60.0, 64.0),
+        (76.0, 84.0),
+        (96.0, 104.0),
+        (116.0, 124.0),
+    ];
+    let mut logged = vec![format!("{},arc_on", lines[0])];
+    for line in &lines[1..] {
+        let t: f64 = line.split(',').next().unwrap().parse().unwrap();
+        let arc = on.iter().any(|&(a, b)| (a..b).contains(&t));
+        logged.push(format!("{line},{}", u8::from(arc)));
+    }
+    std::fs::write(dir.join("log.csv"), logged.join("\n") + "\n").unwrap();
+    let text = std::fs::read_to_string(&plain).unwrap();
+    let machine = dir.join("machine.toml");
+    std::fs::write(&machine, text + "\n[live.machine_log]\narc_on_column = 4\n").unwrap();
+    let run = |scenario: &Path, out: &str| {
+        let out = dir.join(out);
+        let (ok, text) = finish(
+            follow(scenario, &out, &["--until-idle-s", "2"]),
+            Duration::from_secs(300),
+        );
+        assert!(ok, "{text}");
+        let (h, rows) = crate::read_csv(&out.join("forecasts.csv"));
+        let col = |n: &str| h.iter().position(|c| c == n).unwrap();
+        let mut starts: Vec<f64> = rows
+            .iter()
+            .filter(|r| r[col("horizon")] == "next_layer")
+            .map(|r| r[col("target_t_s")].parse().unwrap())
+            .collect();
+        starts.sort_by(f64::total_cmp);
+        starts.dedup_by(|a, b| (*a - *b).abs() < 0.01);
+        (json(&out.join("follow.json")), starts)
+    };
+    let (v, starts) = run(&machine, "machine");
+    let m = &v["machine_log"];
+    assert_eq!(m["stops_mid_pass"], 1, "{m}");
+    assert_eq!(m["arc_stops"], 7, "{m}");
+    assert!((m["late_s"].as_f64().unwrap() - 16.0).abs() < 0.6, "{m}");
+    for late in [76.0, 96.0, 116.0] {
+        assert!(
+            starts.iter().any(|s| (s - late).abs() < 0.6),
+            "{late} not in {starts:?}"
+        );
+    }
+    assert!(!starts.iter().any(|s| (s - 80.0).abs() < 0.6), "{starts:?}");
+    // The run went on to the late end (124 s) and the longest horizon (30 s).
+    assert!(v["data_s"].as_f64().unwrap() >= 154.0, "{}", v["data_s"]);
+
+    let (v, starts) = run(&plain, "plain");
+    assert!(v["machine_log"].is_null());
+    for programmed in [60.0, 80.0, 100.0] {
+        assert!(
+            starts.iter().any(|s| (s - programmed).abs() < 0.01),
+            "{programmed} not in {starts:?}"
+        );
+    }
+}

@@ -24,12 +24,33 @@ pub enum Line {
 
 /// Line `n` (1-based) of a probe file: columns `columns` (0-based) against `time_column`. A
 /// message without the file's name where it does not read (the caller names the file, and in
-/// live mode counts it and goes on).
+/// live mode counts it and goes on). A reading of exactly 0 is none (a logger starting up
+/// writes zeros: the ORNL log's first row).
 pub fn line(
     text: &str,
     n: usize,
     time_column: usize,
     columns: &[usize],
+) -> std::result::Result<Line, String> {
+    read(text, n, time_column, columns, true)
+}
+
+/// [`line`] for a machine's signals, whose 0 is a value (an arc off, no current).
+pub fn signals(
+    text: &str,
+    n: usize,
+    time_column: usize,
+    columns: &[usize],
+) -> std::result::Result<Line, String> {
+    read(text, n, time_column, columns, false)
+}
+
+fn read(
+    text: &str,
+    n: usize,
+    time_column: usize,
+    columns: &[usize],
+    zero_is_none: bool,
 ) -> std::result::Result<Line, String> {
     if text.trim().is_empty() || text.trim_start().starts_with('#') {
         return Ok(Line::Nothing);
@@ -69,7 +90,7 @@ pub fn line(
         values.push(match f[c] {
             "" => None,
             text => match text.parse::<f64>() {
-                Ok(v) if v.is_finite() => (v != 0.0).then_some(v),
+                Ok(v) if v.is_finite() => (!zero_is_none || v != 0.0).then_some(v),
                 _ => return Err(format!("column {c} = {text:?}; expected a number")),
             },
         });

@@ -75,6 +75,27 @@ pub struct RawLive {
     /// `[live.opcua]`: the probes read from an OPC UA server instead of the probe file.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub opcua: Option<RawOpcua>,
+    /// `[live.machine_log]`: the machine's state beside the probes in the probe file's rows.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub machine_log: Option<RawMachineLog>,
+}
+
+/// `[live.machine_log]`: where the probe file's rows (or the OPC UA nodes `arc_on`,
+/// `voltage_v`, `current_a`, `power_w`) say what the machine did.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMachineLog {
+    /// The arc's state (on where above `arc_on_above`): a flag, or the current.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub arc_on_column: Option<usize>,
+    #[serde(default = "half")]
+    pub arc_on_above: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub voltage_v_column: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub current_a_column: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub power_w_column: Option<usize>,
 }
 
 /// `[live.opcua]`: where the cell publishes its sensors.
@@ -412,6 +433,7 @@ pub struct Live {
     pub prior: Option<PathBuf>,
     /// Where the probes are read from when not from the probe file.
     pub opcua: Option<Opcua>,
+    pub machine_log: Option<MachineLog>,
 }
 
 /// `[live.opcua]`, checked.
@@ -419,9 +441,40 @@ pub struct Live {
 pub struct Opcua {
     pub endpoint: String,
     pub time_origin_unix_s: f64,
-    /// (probe index, node id) for each probe the server publishes, in probe order.
+    /// (slot in a row, node id) for each signal the server publishes, in slot order: a probe
+    /// by its index, a machine signal after the probes ([`Signal`]).
     pub nodes: Vec<(usize, String)>,
     pub publishing_interval_s: f64,
+}
+
+/// A machine signal's slot after the probes in a row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Signal {
+    ArcOn = 0,
+    VoltageV = 1,
+    CurrentA = 2,
+    PowerW = 3,
+}
+
+impl Signal {
+    pub const ALL: [Signal; 4] = [
+        Signal::ArcOn,
+        Signal::VoltageV,
+        Signal::CurrentA,
+        Signal::PowerW,
+    ];
+    pub fn key(self) -> &'static str {
+        ["arc_on", "voltage_v", "current_a", "power_w"][self as usize]
+    }
+}
+
+/// `[live.machine_log]`, checked: the columns of the probe file (None: not logged), and the
+/// arc's threshold.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MachineLog {
+    /// Per [`Signal`], its column.
+    pub columns: [Option<usize>; 4],
+    pub arc_on_above: f64,
 }
 
 impl ReplayScenario {
@@ -744,6 +797,7 @@ impl Default for Live {
             voxel_m: None,
             prior: None,
             opcua: None,
+            machine_log: None,
         }
     }
 }
@@ -813,6 +867,48 @@ fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Re
         voxel_m: l.voxel_mm.map(|v| v * 1e-3),
         prior: l.prior.as_ref().map(|p| base.join(p)),
         opcua: l.opcua.as_ref().map(|o| opcua(o, probes, c)).transpose()?,
+        machine_log: l
+            .machine_log
+            .as_ref()
+            .map(|m| machine_log(m, l.opcua.is_some(), c))
+            .transpose()?,
+    })
+}
+
+/// `[live.machine_log]`: the arc's state at least (from the file, or from the OPC UA node
+/// `arc_on`), and the power from `power_w` or from both of `voltage_v` and `current_a`.
+fn machine_log(m: &RawMachineLog, opcua: bool, c: &Checker) -> Result<MachineLog> {
+    const SECTION: &str = "live.machine_log";
+    if m.arc_on_column.is_none() && !opcua {
+        return Err(c.fail_text(
+            SECTION,
+            "arc_on_column",
+            "arc_on_column missing; expected the probe file's column of the arc's state",
+        ));
+    }
+    if m.voltage_v_column.is_some() != m.current_a_column.is_some() {
+        return Err(c.fail_text(
+            SECTION,
+            "voltage_v_column",
+            "voltage_v_column and current_a_column go together (the power is V·I)",
+        ));
+    }
+    if !m.arc_on_above.is_finite() {
+        return Err(c.fail(
+            SECTION,
+            "arc_on_above",
+            m.arc_on_above,
+            "a finite threshold",
+        ));
+    }
+    Ok(MachineLog {
+        columns: [
+            m.arc_on_column,
+            m.voltage_v_column,
+            m.current_a_column,
+            m.power_w_column,
+        ],
+        arc_on_above: m.arc_on_above,
     })
 }
 
@@ -848,13 +944,17 @@ fn opcua(o: &RawOpcua, probes: Option<&RawProbes>, c: &Checker) -> Result<Opcua>
     });
     let mut nodes = Vec::with_capacity(o.nodes.len());
     for (name, node) in &o.nodes {
-        let Some(k) = names.iter().position(|n| n == name) else {
+        let machine = Signal::ALL
+            .iter()
+            .find(|s| s.key() == name)
+            .map(|s| names.len() + *s as usize);
+        let Some(k) = names.iter().position(|n| n == name).or(machine) else {
             return Err(c.fail_text(
                 SECTION,
                 "nodes",
                 format!(
-                    "nodes.{name}: no probe of that name; expected one of [probes] points \
-                     ({})",
+                    "nodes.{name}: no probe or machine signal of that name; expected one of \
+                     [probes] points ({}) or arc_on, voltage_v, current_a, power_w",
                     names.join(", ")
                 ),
             ));

@@ -21,9 +21,10 @@ use crate::output::RunDir;
 use crate::pipeline::calibrate::Range;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{BELOW_AMBIENT_K, Parameter, Replay};
+use crate::pipeline::twin::asrun::MachineRow;
 use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, Progress};
 use crate::pipeline::twin::{Twin, Uncertain};
-use crate::scenario::replay::{Live, Probes, ReplayScenario};
+use crate::scenario::replay::{Live, MachineLog, Probes, ReplayScenario, Signal};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write;
@@ -87,7 +88,8 @@ impl Source {
         };
         #[cfg(feature = "opcua")]
         {
-            let mut sub = opcua::Subscription::start(o, p.points.len()).map_err(Error::input)?;
+            let width = p.points.len() + Signal::ALL.len();
+            let mut sub = opcua::Subscription::start(o, width).map_err(Error::input)?;
             sub.after(data_s);
             Ok(Source::Opcua(sub))
         }
@@ -250,7 +252,7 @@ pub fn run(
     let mut ck = Checkpoints::to(&mut folder);
     let twin = Twin::new(&r, live.twin.clone(), priors.clone())
         .map_err(|e| Error::from(e).context(&name))?;
-    let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
+    let layout = Layout::of(&p, live.machine_log.as_ref());
     let (mut follower, mark, mut counters) = match ck.load::<(Progress, Mark, Counters)>("follow") {
         Some((progress, mark, counters)) => {
             (Follower::resume(twin, &r.deps, progress), mark, counters)
@@ -260,6 +262,9 @@ pub fn run(
             Mark::default(),
             Counters::default(),
         ),
+    };
+    if live.machine_log.is_some() {
+        follower = follower.with_machine_log(s.laying.power_w);
     };
     let mut source = Source::open(&p, &live, mark, follower.data_s())?;
     let source_name = Source::name(&p, &live);
@@ -275,7 +280,6 @@ pub fn run(
         let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
     });
     INTERRUPTED.store(false, Ordering::SeqCst);
-    let program_end = r.deps.last().map_or(0.0, |d| d.time);
     let longest = live.twin.horizons_s.iter().copied().fold(0.0, f64::max);
     let clock = Instant::now();
     let (mut last_new, mut last_rewrite) = (Instant::now(), Instant::now());
@@ -306,12 +310,16 @@ pub fn run(
             }
             last_new = Instant::now();
         }
-        let done = |f: &Follower| f.data_s().is_some_and(|d| d >= program_end + longest);
+        // The program's end as the machine log has moved it, where the build has one.
+        let done = |f: &Follower| {
+            let end = f.twin.deps().last().map_or(0.0, |d| d.time);
+            f.data_s().is_some_and(|d| d >= end + longest)
+        };
         let rows: Vec<(Mark, Option<Row>)> = match brought {
             Brought::Lines(lines) => lines
                 .into_iter()
                 .map(|(mark, text)| {
-                    let row = parse(&mut counters, &p, &columns, (mark.lines, &text));
+                    let row = parse(&mut counters, &p, &layout, (mark.lines, &text));
                     (mark, row)
                 })
                 .collect(),
@@ -331,7 +339,7 @@ pub fn run(
                     &mut follower,
                     &mut counters,
                     row,
-                    (&s, &p),
+                    (&s, &p, live.machine_log.as_ref()),
                     read_at,
                     &mut rec,
                 )?;
@@ -386,13 +394,60 @@ pub fn run(
     Ok(summary(&follower, &counters, ending))
 }
 
-/// A row: build time, s, and a reading per probe (None where it has none).
+/// A row: build time, s, and its values (None where it has none): a reading per probe (°C or
+/// K as the file says), then the machine's signals ([`Signal`]).
 type Row = (f64, Vec<Option<f64>>);
+
+/// Where a probe file's columns go in a row.
+struct Layout {
+    probes: Vec<usize>,
+    /// The machine log's columns, and each one's slot after the probes.
+    signals: Vec<usize>,
+    slots: Vec<usize>,
+}
+
+impl Layout {
+    fn of(p: &Probes, machine: Option<&MachineLog>) -> Layout {
+        let n = p.points.len();
+        let (mut signals, mut slots) = (Vec::new(), Vec::new());
+        for (k, c) in machine
+            .map_or([None; 4], |m| m.columns)
+            .into_iter()
+            .enumerate()
+        {
+            if let Some(c) = c {
+                signals.push(c);
+                slots.push(n + k);
+            }
+        }
+        Layout {
+            probes: p.points.iter().map(|q| q.column).collect(),
+            signals,
+            slots,
+        }
+    }
+}
 
 /// Line `n` of the probe file as a row; a line that does not read is named, counted and
 /// skipped (None).
-fn parse(c: &mut Counters, p: &Probes, columns: &[usize], (n, text): (usize, &str)) -> Option<Row> {
-    match probes::line(text, n, p.time_column, columns) {
+fn parse(c: &mut Counters, p: &Probes, l: &Layout, (n, text): (usize, &str)) -> Option<Row> {
+    let read = probes::line(text, n, p.time_column, &l.probes).and_then(|row| {
+        match (row, l.signals.is_empty()) {
+            (Line::Row(t, mut values), false) => {
+                let Line::Row(_, signals) = probes::signals(text, n, p.time_column, &l.signals)?
+                else {
+                    return Ok(Line::Nothing);
+                };
+                values.resize(p.points.len() + Signal::ALL.len(), None);
+                for (&slot, v) in l.slots.iter().zip(signals) {
+                    values[slot] = v;
+                }
+                Ok(Line::Row(t, values))
+            }
+            (row, _) => Ok(row),
+        }
+    });
+    match read {
         Ok(Line::Nothing) => None,
         Ok(Line::Row(t, v)) => Some((t, v)),
         Err(e) => {
@@ -413,7 +468,7 @@ fn feed(
     follower: &mut Follower,
     counters: &mut Counters,
     (t, mut values): Row,
-    (s, p): (&ReplayScenario, &Probes),
+    (s, p, machine): (&ReplayScenario, &Probes, Option<&MachineLog>),
     read_at: Instant,
     rec: &mut Recorder,
 ) -> Result<()> {
@@ -421,8 +476,14 @@ fn feed(
         counters.reread += 1;
         return Ok(());
     }
+    let signals = values.split_off(p.points.len().min(values.len()));
     in_celsius(&mut values, p.kelvin, s.thermal.ambient_k, counters);
     let before = Instant::now();
+    if let Some(m) = machine
+        && let Some(row) = machine_row(t, &signals, m)
+    {
+        follower.machine(row);
+    }
     let alarms = follower
         .feed(t, &values)
         .map_err(|e| Error::from(e).context(format!("follow at t = {t} s")))?;
@@ -440,6 +501,20 @@ fn feed(
         counters.behind_at_s.push(t);
     }
     Ok(())
+}
+
+/// The machine's state in a row's signals: the arc (on above the threshold) and the power
+/// (logged, or V·I); None where the row does not say the arc's state.
+fn machine_row(t_s: f64, signals: &[Option<f64>], m: &MachineLog) -> Option<MachineRow> {
+    let at = |s: Signal| signals.get(s as usize).copied().flatten();
+    let arc = at(Signal::ArcOn)?;
+    let power_w =
+        at(Signal::PowerW).or_else(|| Some(at(Signal::VoltageV)? * at(Signal::CurrentA)?));
+    Some(MachineRow {
+        t_s,
+        arc_on: arc > m.arc_on_above,
+        power_w,
+    })
 }
 
 /// probes.png and run.mcap: each probe as measured and as forecast one horizon (the shortest)
@@ -806,6 +881,14 @@ fn report(
         },
         "restarts": c.restarts,
         "opcua": c.opcua,
+        "machine_log": p.asrun.as_ref().map(|a| json!({
+            "rows": a.rows,
+            "deposits_laid": a.laid(),
+            "arc_stops": a.stops,
+            "stops_mid_pass": a.stops_mid_pass,
+            "mean_power_w": a.mean_power_w(),
+            "late_s": a.late_s(),
+        })),
         "stalls": c.stalls.iter().map(|s| json!({"at_data_s": s.0, "wall_s": s.1}))
             .collect::<Vec<_>>(),
         "data_s": f.data_s(),

@@ -58,11 +58,13 @@ pub fn advance_scaled<R: HeatRun>(
             false => previous_end,
         };
         let dwell = (d.arc_start() - from).max(0.0);
-        let burn = (scale != 1.0).then(|| thermal::run::Burn {
+        // As `deps` says, not as the run was started on: a twin's schedule moves with the
+        // machine log (heat and arc time; the same at scale 1 where nothing moved).
+        let burn = thermal::run::Burn {
             heat: d.heat * scale,
             ..thermal::run::Burn::of(d)
-        });
-        run.deposit_burning(i, dwell, burn)?;
+        };
+        run.deposit_burning(i, dwell, Some(burn))?;
         after(run);
     }
     if until_s > run.now() {

@@ -18,6 +18,7 @@
 //! travel or after a pause with the arc off. A CTPP spiral's revolution would be one too once
 //! its `path.csv` is the program (not built yet).
 
+use super::asrun::{AsRun, MachineRow};
 use super::{Twin, enkf, probe_k, quantile};
 use crate::pipeline::Error;
 use crate::pipeline::replay;
@@ -34,6 +35,15 @@ pub struct Layer {
     pub last: usize,
     pub start_s: f64,
     pub end_s: f64,
+}
+
+/// The moments at the layers' ends (all but the last's), with their layer.
+fn layer_ends(layers: &[Layer]) -> impl Iterator<Item = (f64, Option<usize>)> + '_ {
+    layers
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k + 1 < layers.len())
+        .map(|(k, l)| (l.end_s, Some(k)))
 }
 
 /// The program's layers, in order.
@@ -295,6 +305,9 @@ pub struct Progress {
     pub readings: usize,
     /// Rows refused because they went back in time.
     pub back_in_time: usize,
+    /// The program as the machine log says it ran, where the build has one.
+    #[serde(default)]
+    pub asrun: Option<AsRun>,
 }
 
 /// A build followed: the twin, the program's layers and the moments forecasts are made at.
@@ -325,6 +338,7 @@ impl<'a> Follower<'a> {
             rows: 0,
             readings: 0,
             back_in_time: 0,
+            asrun: None,
         };
         Follower::resume(twin, deps, progress)
     }
@@ -332,7 +346,10 @@ impl<'a> Follower<'a> {
     /// A follow that goes on from `progress` (a checkpoint).
     pub fn resume(mut twin: Twin<'a>, deps: &[Deposit], progress: Progress) -> Follower<'a> {
         twin.state = progress.twin.clone();
-        let layers = layers(deps);
+        if let Some(a) = &progress.asrun {
+            twin.reschedule(a.deps.clone());
+        }
+        let layers = layers(twin.deps());
         let (start, end) = (
             deps.first().map_or(0.0, |d| d.arc_start()),
             deps.last().map_or(0.0, |d| d.time),
@@ -344,13 +361,7 @@ impl<'a> Follower<'a> {
             .take_while(|&t| t < end)
             .map(|t| (t, None))
             .collect();
-        moments.extend(
-            layers
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| k + 1 < layers.len())
-                .map(|(k, l)| (l.end_s, Some(k))),
-        );
+        moments.extend(layer_ends(&layers));
         moments.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         Follower {
             twin,
@@ -358,6 +369,45 @@ impl<'a> Follower<'a> {
             moments,
             progress,
         }
+    }
+
+    /// Follow the machine log too: its rows rewrite the schedule ([`AsRun`]); the program
+    /// was made at `power_w`.
+    pub fn with_machine_log(mut self, power_w: f64) -> Follower<'a> {
+        if self.progress.asrun.is_none() {
+            self.progress.asrun = Some(AsRun::new(self.twin.deps().to_vec(), power_w));
+        }
+        self
+    }
+
+    /// A row of the machine log, before the probe row of the same time: where it moves the
+    /// schedule, the twin runs the new one and the layers' ends and starts move with it (the
+    /// regular forecasts stay where they were). A row without a machine log is ignored.
+    pub fn machine(&mut self, row: MachineRow) {
+        let Some(a) = self.progress.asrun.as_mut() else {
+            return;
+        };
+        if !a.feed(row) {
+            return;
+        }
+        self.twin.reschedule(a.deps.clone());
+        self.layers = layers(self.twin.deps());
+        let done = self.moments[..self.progress.next_moment].to_vec();
+        let regular = self.moments[self.progress.next_moment..]
+            .iter()
+            .filter(|m| m.1.is_none())
+            .copied();
+        let now = self.data_s().unwrap_or(f64::NEG_INFINITY);
+        // A layer end the log moved to before now (but not before the last row) is due at
+        // once; one already judged is not judged again.
+        let judged: Vec<usize> = done.iter().filter_map(|m| m.1).collect();
+        let ends = layer_ends(&self.layers)
+            .filter(|m| m.1.is_some_and(|k| !judged.contains(&k)))
+            .map(|(t, k)| (t.max(now), k));
+        let mut rest: Vec<(f64, Option<usize>)> = regular.chain(ends).collect();
+        rest.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        self.moments = done;
+        self.moments.extend(rest);
     }
 
     /// The state to keep (the twin's taken into it).
@@ -537,8 +587,7 @@ impl<'a> Follower<'a> {
     /// it under where it is over.
     fn judge(&mut self, at: f64, n: usize, limit: f64) -> Result<Option<Alarm>, Error> {
         let l = self.layers[n];
-        let r = self.twin.r;
-        let deps = &r.deps;
+        let deps = self.twin.deps().to_vec();
         let beneath = |run: &ModelRun| -> f64 {
             (l.first..=l.last)
                 .filter(|&i| deps[i].support.is_none_or(|s| s < run.laid()))

@@ -9,6 +9,7 @@
 //! program at the same times, so their active cells are the same cells, and a cell's index
 //! names the same place in each: what lets the filter read one variable across the members.
 
+pub mod asrun;
 pub mod enkf;
 pub mod follow;
 
@@ -138,6 +139,9 @@ pub struct State {
 /// The twin: a replay's program run by an ensemble.
 pub struct Twin<'a> {
     r: &'a Replay,
+    /// The schedule the members run: the program, or what the machine log made of it
+    /// ([`asrun`]).
+    deps: Vec<thermal::schedule::Deposit>,
     pub settings: Settings,
     pub priors: Vec<Uncertain>,
     pub state: State,
@@ -229,6 +233,7 @@ impl<'a> Twin<'a> {
             .collect();
         Ok(Twin {
             r,
+            deps: r.deps.clone(),
             settings,
             priors,
             state: State {
@@ -266,9 +271,21 @@ impl<'a> Twin<'a> {
         move |values: &[f64]| at.map_or(1.0, |k| values[k] / eff)
     }
 
-    /// Run the members and the open loop on to `t_s` (the program's deposits up to then).
+    /// The schedule the members run.
+    pub fn deps(&self) -> &[thermal::schedule::Deposit] {
+        &self.deps
+    }
+
+    /// Run the members on `deps` from now on: the same deposits, those not yet laid at other
+    /// times and heats (a machine log's word, [`asrun`]).
+    pub fn reschedule(&mut self, deps: Vec<thermal::schedule::Deposit>) {
+        debug_assert_eq!(deps.len(), self.deps.len());
+        self.deps = deps;
+    }
+
+    /// Run the members and the open loop on to `t_s` (the schedule's deposits up to then).
     pub fn advance(&mut self, t_s: f64) -> Result<(), Error> {
-        let (deps, scale) = (&self.r.deps, self.heat_scale());
+        let (deps, scale) = (&self.deps, self.heat_scale());
         self.state.members.par_iter_mut().try_for_each(|m| {
             replay::advance_scaled(&mut m.run, deps, t_s, scale(&m.values), &mut |_| {})
         })?;
@@ -407,7 +424,7 @@ impl<'a> Twin<'a> {
         targets: &[f64],
         read: &(dyn Fn(&ModelRun) -> T + Sync),
     ) -> Result<Vec<(Vec<T>, T)>, Error> {
-        let (deps, scale) = (&self.r.deps, self.heat_scale());
+        let (deps, scale) = (&self.deps, self.heat_scale());
         let runs: Vec<(ModelRun, f64)> = self
             .state
             .members
@@ -453,7 +470,7 @@ impl<'a> Twin<'a> {
         step_s: f64,
         max_s: f64,
     ) -> Result<Option<f64>, Error> {
-        let (deps, scale) = (&self.r.deps, self.heat_scale());
+        let (deps, scale) = (&self.deps, self.heat_scale());
         let mut runs: Vec<ModelRun> = self
             .state
             .members
