@@ -647,3 +647,37 @@ fn the_machine_log_wins_over_the_program() {
         );
     }
 }
+
+/// `--connect` to a viewer that is not there: said on stderr, and the run writes run.rrd and
+/// everything else as without it. A URL that is not a rerun gRPC address is bad input.
+#[test]
+fn a_viewer_that_is_not_there_does_not_stop_the_run() {
+    let dir = scratch("follow_no_viewer");
+    let (scenario, lines) = small_wall(&dir, "");
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let url = format!("rerun+http://127.0.0.1:{port}/proxy");
+    let out = dir.join("out");
+    let (ok, text) = finish(
+        follow(&scenario, &out, &["--until-idle-s", "2", "--connect", &url]),
+        Duration::from_secs(300),
+    );
+    assert!(ok, "{text}");
+    assert!(text.contains("no rerun viewer answers"), "{text}");
+    for f in ["run.rrd", "forecasts.csv", "follow.json"] {
+        assert!(out.join(f).is_file(), "no {f}");
+    }
+    let bad = crate::waamtwin(&[
+        "follow",
+        scenario.to_str().unwrap(),
+        "-o",
+        dir.join("bad").to_str().unwrap(),
+        "--connect",
+        "http://127.0.0.1:9876",
+    ]);
+    crate::assert_input_error(&bad, &["--connect http://127.0.0.1:9876", "rerun+http"]);
+}

@@ -17,6 +17,7 @@ use crate::output::RunDir;
 use crate::pipeline::twin::follow::{Alarm, Forecast, Progress};
 use rerun::RecordingStream;
 use std::path::PathBuf;
+use std::time::Duration;
 
 const TIMELINE: &str = "sim_time";
 /// Build seconds between two views of the part's temperature.
@@ -26,6 +27,32 @@ const INTERPASS_C: f64 = 150.0;
 
 /// The rerun viewer's own gRPC address, where `--connect` sends without a URL.
 pub const DEFAULT_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
+
+/// How long the end of a run waits for a streamed viewer to take what is left.
+const VIEWER_WAIT: Duration = Duration::from_secs(10);
+
+/// A rerun viewer's gRPC URL (`--connect`), checked.
+pub fn viewer(url: &str) -> Result<rerun::external::re_uri::ProxyUri> {
+    url.parse().map_err(|e| {
+        Error::input(format!(
+            "--connect {url}: {e}; expected a rerun gRPC URL such as {DEFAULT_URL}"
+        ))
+    })
+}
+
+/// Whether something accepts a TCP connection at the URL's host and port (within 2 s).
+fn listening(url: &str) -> bool {
+    use std::net::ToSocketAddrs;
+    let Some(authority) = url.split("://").nth(1).and_then(|r| r.split('/').next()) else {
+        return false;
+    };
+    let Ok(addresses) = authority.to_socket_addrs() else {
+        return false;
+    };
+    addresses
+        .into_iter()
+        .any(|a| std::net::TcpStream::connect_timeout(&a, Duration::from_secs(2)).is_ok())
+}
 
 fn fail(e: impl std::fmt::Display) -> Error {
     Error::failure(format!("run.rrd: {e}"))
@@ -43,6 +70,8 @@ pub struct LiveRecording {
     colours: (f64, f64),
     /// The build time of the last view of the part.
     pub field_at_s: Option<f64>,
+    /// The viewer's URL, where streaming.
+    connected: Option<String>,
 }
 
 /// What the recording shows that does not change.
@@ -64,16 +93,18 @@ impl LiveRecording {
         let staged = dir.stage("run.rrd");
         let file = rerun::sink::FileSink::new(&staged).map_err(fail)?;
         let builder = rerun::RecordingStreamBuilder::new("waamtwin");
+        // rerun's gRPC sink holds the logging back while it cannot send (a hundred messages
+        // queue): a viewer that is not there would stop the run. One that answers is streamed to.
+        let connect = match connect {
+            Some(url) if !listening(url) => {
+                eprintln!("follow: no rerun viewer answers at {url}; run.rrd only");
+                None
+            }
+            other => other,
+        };
         let rec = match connect {
             None => builder.set_sinks((file,)),
-            Some(url) => {
-                let uri: rerun::external::re_uri::ProxyUri = url.parse().map_err(|e| {
-                    Error::input(format!(
-                        "--connect {url}: {e}; expected a rerun gRPC URL such as {DEFAULT_URL}"
-                    ))
-                })?;
-                builder.set_sinks((file, rerun::sink::GrpcSink::new(uri)))
-            }
+            Some(url) => builder.set_sinks((file, rerun::sink::GrpcSink::new(viewer(url)?))),
         }
         .map_err(fail)?;
         rec.send_recording_name(scene.title).map_err(fail)?;
@@ -87,6 +118,7 @@ impl LiveRecording {
             alarms: 0,
             colours: (scene.ambient_c, scene.interpass_c.unwrap_or(INTERPASS_C)),
             field_at_s: None,
+            connected: connect.map(String::from),
         };
         r.scene(scene)?;
         Ok(r)
@@ -257,11 +289,31 @@ impl LiveRecording {
             .map_err(fail)
     }
 
-    /// Flush both sinks and put run.rrd in place.
+    /// Flush both sinks and put run.rrd in place. A viewer that has not taken the whole
+    /// stream within [`VIEWER_WAIT`] (or was never there) is said so on stderr and left: the
+    /// file is finished all the same.
     pub fn finish(self, dir: &mut RunDir) -> Result<()> {
-        self.rec.flush_blocking().map_err(fail)?;
+        let wait = match self.connected {
+            Some(_) => VIEWER_WAIT,
+            None => Duration::MAX,
+        };
+        let flushed = self.rec.flush_with_timeout(wait);
+        // The file's footer is written when its sink goes; the gRPC sink stays.
+        self.rec.finalize_deferred_sinks();
         let staged = self.staged.clone();
-        drop(self.rec);
+        match (flushed, &self.connected) {
+            (Ok(()), _) => drop(self.rec),
+            (Err(e), Some(url)) => {
+                eprintln!(
+                    "follow: the rerun viewer at {url} did not take the whole recording ({e}); \
+                     run.rrd has it"
+                );
+                // Dropping a stream whose gRPC sink never connected waits for it without end;
+                // the process is about to end and takes the connection with it.
+                std::mem::forget(self.rec);
+            }
+            (Err(e), None) => return Err(fail(e)),
+        }
         dir.commit(&staged, "run.rrd").map(|_| ())
     }
 }

@@ -240,6 +240,10 @@ pub fn run(
             "--until-idle-s {v}; expected seconds, more than 0"
         )));
     }
+    #[cfg(feature = "recording")]
+    if let Some(url) = connect {
+        crate::record::live::viewer(url)?;
+    }
     let live = s.live.clone().unwrap_or_default();
     let mut twin_scenario = s.clone();
     if let Some(v) = live.voxel_m {
