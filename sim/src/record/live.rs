@@ -14,7 +14,7 @@
 use super::rerun_layout::{Node, view};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
-use crate::pipeline::twin::follow::{Alarm, Forecast, Progress};
+use crate::pipeline::twin::follow::{Alarm, Forecast, Horizon, Progress};
 use rerun::RecordingStream;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -27,6 +27,9 @@ const INTERPASS_C: f64 = 150.0;
 
 /// The rerun viewer's own gRPC address, where `--connect` sends without a URL.
 pub const DEFAULT_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
+
+/// The horizons' colours, shortest first.
+const HUES: [[u8; 3]; 3] = [[230, 120, 20], [170, 110, 230], [60, 170, 230]];
 
 /// How long the end of a run waits for a streamed viewer to take what is left.
 const VIEWER_WAIT: Duration = Duration::from_secs(10);
@@ -63,7 +66,10 @@ pub struct LiveRecording {
     rec: RecordingStream,
     staged: PathBuf,
     probes: Vec<String>,
-    parameters: Vec<String>,
+    parameters: Vec<(String, [f64; 2])>,
+    /// The forecast series already given their names and colours.
+    styled: std::collections::BTreeSet<String>,
+    horizons_s: Vec<f64>,
     forecasts: usize,
     settling: usize,
     alarms: usize,
@@ -81,7 +87,9 @@ pub struct Scene<'a> {
     pub tracks: &'a [Vec<[f64; 3]>],
     /// Each probe's name and place, mm.
     pub probes: &'a [(String, [f64; 3])],
-    pub parameters: &'a [&'static str],
+    pub horizons_s: &'a [f64],
+    /// Each uncertain parameter's name and range.
+    pub parameters: &'a [(&'static str, [f64; 2])],
     pub ambient_c: f64,
     /// Where the colour scale turns green, °C.
     pub interpass_c: Option<f64>,
@@ -112,7 +120,13 @@ impl LiveRecording {
             rec,
             staged,
             probes: scene.probes.iter().map(|p| p.0.clone()).collect(),
-            parameters: scene.parameters.iter().map(|p| p.to_string()).collect(),
+            parameters: scene
+                .parameters
+                .iter()
+                .map(|(p, range)| (p.to_string(), *range))
+                .collect(),
+            styled: Default::default(),
+            horizons_s: scene.horizons_s.to_vec(),
             forecasts: 0,
             settling: 0,
             alarms: 0,
@@ -141,7 +155,7 @@ impl LiveRecording {
         let params = Node::Column(
             self.parameters
                 .iter()
-                .map(|p| {
+                .map(|(p, _)| {
                     let path = format!("parameters/{p}/**");
                     (1.0, view("TimeSeries", p, "/", &[path.as_str()]))
                 })
@@ -181,7 +195,7 @@ impl LiveRecording {
                 [230, 230, 230],
             )?;
         }
-        for p in &self.parameters {
+        for (p, _) in &self.parameters {
             self.style(&format!("parameters/{p}/mean"), "mean", [80, 160, 230])?;
             for q in ["p05", "p95"] {
                 self.style(&format!("parameters/{p}/{q}"), q, [60, 90, 130])?;
@@ -223,11 +237,13 @@ impl LiveRecording {
         }
         self.forecasts = p.forecasts.len();
         for &(t, k, mean, sd) in &p.settling[self.settling.min(p.settling.len())..] {
-            let name = &self.parameters[k];
+            let (name, [low, high]) = &self.parameters[k];
             self.scalar(format!("parameters/{name}/mean"), t, mean)?;
-            // The normal 5–95 % of the members' spread.
-            self.scalar(format!("parameters/{name}/p05"), t, mean - 1.645 * sd)?;
-            self.scalar(format!("parameters/{name}/p95"), t, mean + 1.645 * sd)?;
+            // The normal 5–95 % of the members' spread, within the parameter's range (the
+            // members live on its logit: none is outside).
+            let band = |z: f64| (mean + z * sd).clamp(*low, *high);
+            self.scalar(format!("parameters/{name}/p05"), t, band(-1.645))?;
+            self.scalar(format!("parameters/{name}/p95"), t, band(1.645))?;
         }
         self.settling = p.settling.len();
         for a in &p.alarms[self.alarms.min(p.alarms.len())..] {
@@ -265,15 +281,31 @@ impl LiveRecording {
         Ok(())
     }
 
-    fn forecast(&self, f: &Forecast) -> Result<()> {
-        let base = format!(
-            "probes/{}/forecast_{}",
-            self.probes[f.probe],
-            match f.horizon.label().parse::<f64>() {
-                Ok(_) => format!("{}s", f.horizon.label()),
-                Err(_) => f.horizon.label(),
-            }
-        );
+    fn forecast(&mut self, f: &Forecast) -> Result<()> {
+        let horizon = match f.horizon.label().parse::<f64>() {
+            Ok(_) => format!("{}s", f.horizon.label()),
+            Err(_) => f.horizon.label(),
+        };
+        let base = format!("probes/{}/forecast_{horizon}", self.probes[f.probe]);
+        if self.styled.insert(base.clone()) {
+            // One hue a horizon, the band dimmer: the shortest orange, then violet…; the next
+            // layer's start green.
+            let hue = match f.horizon {
+                Horizon::NextLayer => [90, 200, 120],
+                Horizon::After(h) => {
+                    let rank = self.horizons_s.iter().filter(|&&x| x < h).count();
+                    HUES[rank.min(HUES.len() - 1)]
+                }
+            };
+            let dim = hue.map(|c| c / 2 + 40);
+            self.style(
+                &format!("{base}/predicted_c"),
+                &format!("{horizon} ahead"),
+                hue,
+            )?;
+            self.style(&format!("{base}/p05_c"), &format!("{horizon} p05"), dim)?;
+            self.style(&format!("{base}/p95_c"), &format!("{horizon} p95"), dim)?;
+        }
         self.scalar(format!("{base}/predicted_c"), f.target_t_s, f.predicted_c)?;
         self.scalar(format!("{base}/p05_c"), f.target_t_s, f.p05_c)?;
         self.scalar(format!("{base}/p95_c"), f.target_t_s, f.p95_c)

@@ -275,7 +275,13 @@ pub fn run(
     let mut dir = RunDir::create(out)?;
     let names = names(&p);
     let interpass_c = live.twin.interpass_max_k.map(|k| k - C);
-    let mut rec = Recorder::open(&dir, scenario, &r, &p, &priors, interpass_c, connect)?;
+    let mut rec = Recorder::open(
+        &dir,
+        scenario,
+        (&r, &p, &priors),
+        (&live.twin.horizons_s, interpass_c),
+        connect,
+    )?;
     // One handler for the process (a second would be refused), one flag every run reads.
     static INTERRUPTED: AtomicBool = AtomicBool::new(false);
     static HANDLER: std::sync::Once = std::sync::Once::new();
@@ -600,10 +606,8 @@ impl Recorder {
     fn open(
         dir: &RunDir,
         scenario: &Path,
-        r: &Replay,
-        p: &Probes,
-        priors: &[Uncertain],
-        interpass_c: Option<f64>,
+        (r, p, priors): (&Replay, &Probes, &[Uncertain]),
+        (horizons_s, interpass_c): (&[f64], Option<f64>),
         connect: Option<&str>,
     ) -> Result<Recorder> {
         #[cfg(feature = "recording")]
@@ -617,12 +621,16 @@ impl Recorder {
                 .iter()
                 .map(|q| (q.name.clone(), q.position_m.map(|x| x * 1e3)))
                 .collect();
-            let parameters: Vec<&'static str> = priors.iter().map(|u| u.parameter.key()).collect();
+            let parameters: Vec<(&'static str, [f64; 2])> = priors
+                .iter()
+                .map(|u| (u.parameter.key(), [u.range.low, u.range.high]))
+                .collect();
             let scene = crate::record::live::Scene {
                 title: &format!("{title}: followed live"),
                 tracks: &super::replay::tracks(&r.deps),
                 probes: &probes,
                 parameters: &parameters,
+                horizons_s: &horizons_s,
                 ambient_c: r.values.thermal.ambient_k - C,
                 interpass_c,
             };
@@ -630,7 +638,7 @@ impl Recorder {
         }
         #[cfg(not(feature = "recording"))]
         {
-            let _ = (dir, scenario, r, p, priors, interpass_c);
+            let _ = (dir, scenario, r, p, priors, horizons_s, interpass_c);
             match connect {
                 Some(_) => Err(Error::input(
                     "--connect: this waamtwin was built without recordings (feature \"recording\")",
