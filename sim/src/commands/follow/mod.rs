@@ -630,7 +630,7 @@ impl Recorder {
                 tracks: &super::replay::tracks(&r.deps),
                 probes: &probes,
                 parameters: &parameters,
-                horizons_s: &horizons_s,
+                horizons_s,
                 ambient_c: r.values.thermal.ambient_k - C,
                 interpass_c,
             };
