@@ -532,6 +532,15 @@ fn the_recording_streams_to_a_rerun_viewer_as_the_run_goes() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("start rerun --save");
+    // Wait for it to listen (bounded: 60 s; it takes seconds on a loaded machine).
+    let start = Instant::now();
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = viewer.kill();
+            panic!("rerun --save did not listen on {port} within 60 s");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
     let out = dir.join("out");
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
     let (ok, text) = finish(

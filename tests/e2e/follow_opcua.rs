@@ -13,6 +13,24 @@ use std::time::Duration;
 const ROWS: usize = 400;
 /// The program's t = 0 on the server's clock (2026-01-01T00:00:00Z).
 const ORIGIN_UNIX_S: f64 = 1_767_225_600.0;
+/// The signals served, each a node `ns=2;s=NAME`, and the log's column it comes from: the ten
+/// thermocouples and the machine's state (the scenario's `[live.machine_log]` reads the same
+/// columns from the file).
+const SERVED: [(&str, usize); 13] = [
+    ("tc1", 2),
+    ("tc2", 3),
+    ("tc3", 4),
+    ("tc4", 5),
+    ("tc5", 6),
+    ("tc6", 7),
+    ("tc7", 8),
+    ("tc8", 9),
+    ("tc9", 10),
+    ("tc10", 11),
+    ("arc_on", 16),
+    ("voltage_v", 14),
+    ("current_a", 15),
+];
 /// Served at 50× the logger's pace.
 const SPEED: &str = "50";
 
@@ -40,8 +58,9 @@ fn scenarios(dir: &Path, port: u16) -> Option<(PathBuf, PathBuf, PathBuf)> {
     let (file, served) = (dir.join("file.toml"), dir.join("opcua.toml"));
     let ornl = root().join("scenarios/ornl_srp_pad.toml");
     scenario_with(&ornl, &probes, "", &file);
-    let nodes: Vec<String> = (1..=10)
-        .map(|k| format!("tc{k} = \"ns=2;s=tc{k}\""))
+    let nodes: Vec<String> = SERVED
+        .iter()
+        .map(|(name, _)| format!("{name} = \"ns=2;s={name}\""))
         .collect();
     let opcua = format!(
         "\n[live.opcua]\nendpoint = \"opc.tcp://127.0.0.1:{port}/waamtwin/\"\n\
@@ -65,8 +84,8 @@ fn serve(log: &Path, port: u16, from: usize, exit_after: Option<usize>) -> Child
             SPEED,
         ])
         .args(["--from-row", &from.to_string(), "--wait-s", "60"]);
-    for k in 1..=10 {
-        c.args(["--column", &format!("tc{k}={}", k + 1)]);
+    for (name, column) in SERVED {
+        c.args(["--column", &format!("{name}={column}")]);
     }
     if let Some(k) = exit_after {
         c.args(["--exit-after-row", &k.to_string()]);
@@ -102,7 +121,8 @@ fn follow_json(out: &Path) -> serde_json::Value {
 /// milliseconds), and the twin's forecasts hang on the data's clock, not the wall's, so nothing
 /// may differ. Then the server is killed after row 200 and started again from row 150: the
 /// client reconnects, counts the 50 rows it sends again without feeding them, and still writes
-/// the file run's forecasts.
+/// the file run's forecasts. The machine's state comes over the wire too, and wins over the
+/// program as the file's does.
 #[test]
 fn the_ornl_log_over_opcua_forecasts_as_the_file_does_through_a_server_restart() {
     if !crate::system_tests("the OPC UA follow (asyncua from PyPI into target/readers-venv)") {
@@ -152,11 +172,13 @@ fn the_ornl_log_over_opcua_forecasts_as_the_file_does_through_a_server_restart()
     let v = follow_json(&dir.join("restarted"));
     assert_eq!(v["rows"], ROWS, "{v}");
     assert_eq!(v["opcua"]["reconnects"], 1, "{v}");
-    // Rows from 150 to the last the client had before the kill came twice, ten values each
-    // (the last few rows may die in flight with the server, and come once, from the second).
+    // Rows from 150 to the last the client had before the kill came twice, all 13 values of
+    // each (the last few rows may die in flight with the server, and come once, from the
+    // second).
     let repeated = v["opcua"]["repeated"].as_u64().unwrap();
+    let served = SERVED.len() as u64;
     assert!(
-        repeated.is_multiple_of(10) && (400..=510).contains(&repeated),
+        repeated.is_multiple_of(served) && (40 * served..=51 * served).contains(&repeated),
         "{v}"
     );
 }
