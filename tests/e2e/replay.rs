@@ -186,6 +186,19 @@ fn gamma_wall_calibrated_on_one_half_and_judged_on_the_other() {
     let ci = efficiency["ci95"].as_array().unwrap();
     let v = efficiency["value"].as_f64().unwrap();
     assert!(ci[0].as_f64().unwrap() < v && v < ci[1].as_f64().unwrap());
+    // The covariance: square in the parameters' order, symmetric, its diagonal positive.
+    let n = c["parameters"].as_array().unwrap().len();
+    let cov = c["covariance"]
+        .as_array()
+        .unwrap_or_else(|| panic!("no covariance: {c}"));
+    assert_eq!(cov.len(), n);
+    let at = |i: usize, k: usize| cov[i][k].as_f64().unwrap();
+    for i in 0..n {
+        assert!(at(i, i) > 0.0, "{c}");
+        for k in 0..n {
+            assert_eq!(at(i, k), at(k, i), "{c}");
+        }
+    }
     let (head, rows) = read_csv(&out.join("probes.csv"));
     assert_eq!(head, ["probe", "t_s", "measured_c", "predicted_c"]);
     assert!(rows.len() > 100_000);

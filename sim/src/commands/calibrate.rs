@@ -121,6 +121,9 @@ pub fn run(
         "calibration.json",
         &json!({
             "parameters": parameters,
+            // The fitted values' covariance, in `parameters`' order and units (null where the
+            // data do not constrain some combination).
+            "covariance": fit.covariance,
             "fit_s": fit_w,
             "holdout_s": hold_w,
             "rms_fit_c": rms(fit_after),

@@ -43,6 +43,10 @@ pub struct Fit {
     /// Per parameter: 95 % confidence interval, cut at the parameter's bounds; None where JᵀJ
     /// is singular (the data do not constrain that combination).
     pub ci95: Vec<Option<[f64; 2]>>,
+    /// The values' covariance in the parameters' own units, s²·(JᵀJ)⁻¹ (the intervals'
+    /// before their cut at the bounds), row-major in the parameters' order: what a later draw
+    /// of parameter sets needs to keep their correlation. None where JᵀJ is singular.
+    pub covariance: Option<Vec<Vec<f64>>>,
 }
 
 /// The settings of a fit.
@@ -137,7 +141,7 @@ pub fn fit<E>(
         None => jacobian(&u, &r, s.step, &mut runs, |u| residuals(&values(u)))?,
     };
     let found = values(&u);
-    let (sensitivity, ci95) = statistics(&j, &r, ranges, &found, s.independent);
+    let (sensitivity, ci95, covariance) = statistics(&j, &r, ranges, &found, s.independent);
     Ok(Fit {
         values: found,
         rms_start,
@@ -146,6 +150,7 @@ pub fn fit<E>(
         iterations,
         sensitivity,
         ci95,
+        covariance,
     })
 }
 
@@ -185,14 +190,17 @@ fn damped_step(a: &DMatrix<f64>, g: &DVector<f64>, lambda: f64) -> Option<DVecto
     m.cholesky().map(|c| -c.solve(g))
 }
 
-/// Sensitivities and 95 % intervals in the parameters' own units.
+/// Sensitivities, 95 % intervals and the covariance, in the parameters' own units.
+type Statistics = (Vec<f64>, Vec<Option<[f64; 2]>>, Option<Vec<Vec<f64>>>);
+
+/// [`Statistics`] of a fit whose Jacobian (in units of the bounds) is `j`.
 fn statistics(
     j: &DMatrix<f64>,
     r: &[f64],
     ranges: &[Range],
     values: &[f64],
     independent: usize,
-) -> (Vec<f64>, Vec<Option<[f64; 2]>>) {
+) -> Statistics {
     let (m, n) = (r.len(), ranges.len());
     let width = |i: usize| ranges[i].high - ranges[i].low;
     let sensitivity = (0..n)
@@ -202,6 +210,17 @@ fn statistics(
     let s2 = ssr(r) / m.saturating_sub(n).max(1) as f64;
     let inflate = m as f64 / independent.clamp(1, m.max(1)) as f64;
     let inverse = (j.transpose() * j).try_inverse();
+    // In units of the bounds u = (p − low)/width, so p's covariance is W·cov_u·W.
+    let covariance = inverse.as_ref().map(|c| {
+        (0..n)
+            .map(|i| {
+                (0..n)
+                    // Symmetric to the bit (an LU inverse need not be).
+                    .map(|k| 0.5 * (c[(i, k)] + c[(k, i)]) * s2 * inflate * (width(i) * width(k)))
+                    .collect()
+            })
+            .collect()
+    });
     let ci = (0..n)
         .map(|i| {
             let var = inverse.as_ref()?[(i, i)] * s2 * inflate;
@@ -216,7 +235,7 @@ fn statistics(
             })
         })
         .collect();
-    (sensitivity, ci)
+    (sensitivity, ci, covariance)
 }
 
 #[cfg(test)]
@@ -267,6 +286,34 @@ mod tests {
         assert!(f.runs <= 24);
         // Seen by the data: a unit of slope moves the residuals by the RMS of x (~5.8).
         assert!((f.sensitivity[0] - 5.77).abs() < 0.1, "{:?}", f.sensitivity);
+        // The covariance is ordinary least squares' own, s²·(XᵀX)⁻¹ with X = [x 1] (the
+        // forward differences are exact on a line): slope and intercept anticorrelated on
+        // x ≥ 0, the intervals its diagonal's.
+        let m = xs.len() as f64;
+        let (sx, sxx) = (
+            xs.iter().sum::<f64>(),
+            xs.iter().map(|x| x * x).sum::<f64>(),
+        );
+        let r: Vec<f64> = xs
+            .iter()
+            .zip(&ys)
+            .map(|(x, y)| f.values[0] * x + f.values[1] - y)
+            .collect();
+        let s2 = r.iter().map(|r| r * r).sum::<f64>() / (m - 2.0);
+        let det = m * sxx - sx * sx;
+        let expected =
+            [[m / det, -sx / det], [-sx / det, sxx / det]].map(|row| row.map(|v| v * s2));
+        let c = f.covariance.as_ref().expect("a covariance");
+        for (i, row) in expected.iter().enumerate() {
+            for (k, v) in row.iter().enumerate() {
+                assert!(
+                    (c[i][k] - v).abs() < 1e-6 * v.abs(),
+                    "{c:?} against {expected:?}"
+                );
+            }
+        }
+        assert!(c[0][1] < 0.0 && c[0][1] == c[1][0]);
+        assert!((hi - lo - 2.0 * 1.96 * c[0][0].sqrt()).abs() < 1e-9);
     }
 
     /// A bound holds: a slope that wants 2.5 inside [0, 2] stops at 2.
