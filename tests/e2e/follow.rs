@@ -459,6 +459,14 @@ fn one_thread_or_two_follow_alike() {
 #[test]
 fn bad_live_input_is_named() {
     let dir = scratch("follow_bad");
+    let run = |scenario: &Path, case: &Path| {
+        crate::waamtwin(&[
+            "follow",
+            scenario.to_str().unwrap(),
+            "-o",
+            case.join("out").to_str().unwrap(),
+        ])
+    };
     let cases: [(&str, &[&str]); 3] = [
         (
             "relaxation = 2.0",
@@ -478,13 +486,7 @@ fn bad_live_input_is_named() {
         std::fs::create_dir_all(&case).unwrap();
         let (scenario, lines) = small_wall(&case, live);
         std::fs::write(case.join("log.csv"), lines.join("\n") + "\n").unwrap();
-        let out = crate::waamtwin(&[
-            "follow",
-            scenario.to_str().unwrap(),
-            "-o",
-            case.join("out").to_str().unwrap(),
-        ]);
-        crate::assert_input_error(&out, needles);
+        crate::assert_input_error(&run(&scenario, &case), needles);
     }
     // Without [calibrate] nothing is uncertain.
     let case = dir.join("no_prior");
@@ -498,13 +500,7 @@ fn bad_live_input_is_named() {
     assert_ne!(cut, text);
     std::fs::write(&scenario, cut).unwrap();
     std::fs::write(case.join("log.csv"), lines.join("\n") + "\n").unwrap();
-    let out = crate::waamtwin(&[
-        "follow",
-        scenario.to_str().unwrap(),
-        "-o",
-        case.join("out").to_str().unwrap(),
-    ]);
-    crate::assert_input_error(&out, &["[calibrate]", "[live] prior"]);
+    crate::assert_input_error(&run(&scenario, &case), &["[calibrate]", "[live] prior"]);
 }
 
 /// `--connect`: the recording streamed over gRPC to a rerun that saves what it receives

@@ -195,7 +195,9 @@ impl Subscription {
 /// The client: connect (retrying without end, with back-off), subscribe, and pass on every
 /// value and every change of the connection until the receiver is gone.
 async fn client(endpoint: String, nodes: Vec<NodeId>, interval: Duration, tx: mpsc::Sender<Event>) {
-    let pki = std::env::temp_dir().join(format!("waamtwin-opcua-pki-{}", std::process::id()));
+    // Security mode None needs no certificate, but the client keeps its (empty) trust folders
+    // somewhere: one folder for every run, not one left behind per process.
+    let pki = std::env::temp_dir().join("waamtwin-opcua-pki");
     let built = ClientBuilder::new()
         .application_name("waamtwin follow")
         .application_uri("urn:waamtwin:follow")
