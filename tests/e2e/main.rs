@@ -1,6 +1,7 @@
 //! End-to-end tests: the `waamtwin` binary on scenarios and meshes, one module per area.
 
 mod bead;
+mod calibration;
 mod cli;
 mod ctpp;
 mod determinism;

@@ -124,6 +124,9 @@ pub fn run(
             // The fitted values' covariance, in `parameters`' order and units (null where the
             // data do not constrain some combination).
             "covariance": fit.covariance,
+            // What `efficiency` is the efficiency of: a scenario with another heat source
+            // does not take it (scenario::calibration).
+            "heat_source": s.raw.process.source,
             "fit_s": fit_w,
             "holdout_s": hold_w,
             "rms_fit_c": rms(fit_after),

@@ -203,7 +203,8 @@ impl Study {
             table.insert(name.to_string(), value.clone());
         }
         let text = toml::to_string(&t).map_err(|e| Error::failure(e.to_string()))?;
-        Scenario::parse_generated(&text, &what, &self.base_dir)
+        let kept: Vec<String> = c.overrides.iter().map(|o| o.0.clone()).collect();
+        Scenario::parse_generated(&text, &what, &self.base_dir, &kept)
     }
 }
 

@@ -2,6 +2,7 @@
 //! (geometry stays in mm: the planner is geometry, and works in mm). Only a `Scenario` reaches
 //! the models. Every key and default is documented in `scenarios/README.md`.
 
+pub mod calibration;
 mod raw;
 pub mod replay;
 
@@ -61,6 +62,8 @@ pub struct Scenario {
     pub bead: BeadSettings,
     pub output: RawOutput,
     pub skeleton: SkeletonSettings,
+    /// `[calibration] file`: what it carried in (already in the sections above) and what not.
+    pub calibration: Option<calibration::Carried>,
     /// The resolved input, echoed into `manifest.json`.
     pub raw: RawScenario,
 }
@@ -71,21 +74,37 @@ impl Scenario {
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
         let base = path.parent().unwrap_or(Path::new("."));
-        Scenario::parse(&text, &path.display().to_string(), base)
+        let s = Scenario::parse(&text, &path.display().to_string(), base)?;
+        if let Some(line) = s.calibration.as_ref().and_then(|c| c.notice()) {
+            eprintln!("{line}");
+        }
+        Ok(s)
     }
 
     /// Parse scenario text; `file` names it in messages, with the line of the key.
     pub fn parse(text: &str, file: &str, base: &Path) -> Result<Scenario> {
-        Scenario::parse_with(text, file, base, true)
+        Scenario::parse_with(text, file, base, true, &[])
     }
 
     /// Parse scenario text that no user wrote (a study case: a base scenario with overrides):
     /// `what` names it in messages, and no line is given, since the user has no such file.
-    pub fn parse_generated(text: &str, what: &str, base: &Path) -> Result<Scenario> {
-        Scenario::parse_with(text, what, base, false)
+    /// `kept`: the `section.key`s the case sets, which a `[calibration]` does not replace.
+    pub fn parse_generated(
+        text: &str,
+        what: &str,
+        base: &Path,
+        kept: &[String],
+    ) -> Result<Scenario> {
+        Scenario::parse_with(text, what, base, false, kept)
     }
 
-    fn parse_with(text: &str, file: &str, base: &Path, lines: bool) -> Result<Scenario> {
+    fn parse_with(
+        text: &str,
+        file: &str,
+        base: &Path,
+        lines: bool,
+        kept: &[String],
+    ) -> Result<Scenario> {
         if text
             .parse::<toml::Table>()
             .is_ok_and(|t| t.contains_key("toolpath"))
@@ -95,14 +114,29 @@ impl Scenario {
                  `waamtwin replay`"
             )));
         }
-        let raw: RawScenario =
+        let mut raw: RawScenario =
             toml::from_str(text).map_err(|e| toml_error(&e, text, file, lines))?;
+        let calibration = match raw.calibration.clone() {
+            Some(k) => {
+                let f = calibration::read(&base.join(&k.file))?;
+                let (process, thermal) = (&mut raw.process, &mut raw.thermal);
+                Some(calibration::carry(f, "arc", kept, &mut |p, x| {
+                    calibration::set_in(&mut process.efficiency, thermal, p, x)
+                }))
+            }
+            None => None,
+        };
         let c = Checker { text, file, lines };
-        Scenario::from_raw(raw, &c, base)
+        Scenario::from_raw(raw, calibration, &c, base)
     }
 
     /// One small conversion per section, each naming its own keys in its errors.
-    fn from_raw(raw: RawScenario, c: &Checker, base: &Path) -> Result<Scenario> {
+    fn from_raw(
+        raw: RawScenario,
+        calibration: Option<calibration::Carried>,
+        c: &Checker,
+        base: &Path,
+    ) -> Result<Scenario> {
         let width = raw.process.bead_width_mm;
         Ok(Scenario {
             part: part_spec(&raw.part, c, base)?,
@@ -114,6 +148,7 @@ impl Scenario {
             bead: bead(&raw.bead, c)?,
             output: raw.output.clone(),
             skeleton: skeleton(&raw.skeleton, c)?,
+            calibration,
             raw,
         })
     }
@@ -145,7 +180,11 @@ impl Scenario {
     }
 
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::to_value(&self.raw).unwrap_or(serde_json::Value::Null)
+        let mut v = serde_json::to_value(&self.raw).unwrap_or(serde_json::Value::Null);
+        if let (Some(c), Some(o)) = (&self.calibration, v.as_object_mut()) {
+            o.insert("calibration".into(), c.to_json());
+        }
+        v
     }
 
     /// A short name for plots and recordings: the library shape or the mesh file.

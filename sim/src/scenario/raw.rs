@@ -23,6 +23,9 @@ pub struct RawScenario {
     pub output: RawOutput,
     #[serde(default)]
     pub skeleton: RawSkeleton,
+    /// `[calibration] file`: a calibrate run's fitted values replace this file's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<super::calibration::RawCalibration>,
 }
 
 /// Skeleton arc AM (`waamtwin skeleton`; Radel et al. 2019): the part is `[part] mesh`, an OBJ

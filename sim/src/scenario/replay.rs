@@ -28,6 +28,9 @@ pub struct RawReplay {
     /// How `follow` runs the twin on this build.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub live: Option<RawLive>,
+    /// `[calibration] file`: a calibrate run's fitted values replace this file's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<super::calibration::RawCalibration>,
 }
 
 /// `[live]`: the twin's ensemble, its filter, its forecasts and its alarms.
@@ -420,6 +423,8 @@ pub struct ReplayScenario {
     pub calibrate: Option<Calibrate>,
     /// `[live]`, checked; None where the scenario has none (`follow` then takes the defaults).
     pub live: Option<Live>,
+    /// `[calibration] file`: what it carried in (already in the values above) and what not.
+    pub calibration: Option<super::calibration::Carried>,
     pub raw: RawReplay,
 }
 
@@ -482,11 +487,30 @@ impl ReplayScenario {
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
         let base = path.parent().unwrap_or(Path::new("."));
-        ReplayScenario::parse(&text, &path.display().to_string(), base)
+        let s = ReplayScenario::parse(&text, &path.display().to_string(), base)?;
+        if let Some(line) = s.calibration.as_ref().and_then(|c| c.notice()) {
+            eprintln!("{line}");
+        }
+        Ok(s)
     }
 
     pub fn parse(text: &str, file: &str, base: &Path) -> Result<ReplayScenario> {
-        let raw: RawReplay = toml::from_str(text).map_err(|e| toml_error(&e, text, file, true))?;
+        use super::calibration;
+        let mut raw: RawReplay =
+            toml::from_str(text).map_err(|e| toml_error(&e, text, file, true))?;
+        let calibration = match raw.calibration.clone() {
+            Some(k) => {
+                let f = calibration::read(&base.join(&k.file))?;
+                let (process, thermal) = (&mut raw.process, &mut raw.thermal);
+                Some(calibration::carry(
+                    f,
+                    &process.source.clone(),
+                    &[],
+                    &mut |p, x| calibration::set_in(&mut process.efficiency, thermal, p, x),
+                ))
+            }
+            None => None,
+        };
         let c = Checker {
             text,
             file,
@@ -574,12 +598,17 @@ impl ReplayScenario {
                 .as_ref()
                 .map(|l| live(l, raw.probes.as_ref(), &c, base))
                 .transpose()?,
+            calibration,
             raw,
         })
     }
 
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::to_value(&self.raw).unwrap_or_default()
+        let mut v = serde_json::to_value(&self.raw).unwrap_or_default();
+        if let (Some(c), Some(o)) = (&self.calibration, v.as_object_mut()) {
+            o.insert("calibration".into(), c.to_json());
+        }
+        v
     }
 }
 
@@ -1223,5 +1252,55 @@ mod tests {
             let e = ReplayScenario::parse(&with(cal), "r.toml", Path::new(".")).unwrap_err();
             assert!(e.message.contains(needle), "{needle}: {}", e.message);
         }
+    }
+
+    /// `[calibration] file` replaces the replay's values by their names; an efficiency fitted
+    /// under another heat source stays out, listed with the reason.
+    #[test]
+    fn a_calibration_carries_into_a_replay() {
+        let dir = std::env::temp_dir().join(format!("waamtwin-cal-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("cal.json"),
+            r#"{"parameters": [
+                {"name": "efficiency", "value": 0.7, "low": 0.2, "high": 0.95, "ci95": [0.6, 0.8]},
+                {"name": "emissivity", "value": 0.35, "low": 0.05, "high": 0.9}],
+                "heat_source": "arc"}"#,
+        )
+        .unwrap();
+        let with = format!("{GOOD}[calibration]\nfile = \"cal.json\"\n");
+        let s = ReplayScenario::parse(&with, "r.toml", &dir).unwrap();
+        assert_eq!(s.laying.efficiency, 0.7);
+        assert_eq!(s.thermal.emissivity, 0.35);
+        let json = s.to_json();
+        assert_eq!(json["process"]["efficiency"], 0.7);
+        assert_eq!(json["calibration"]["applied"][0]["scenario_value"], 0.5);
+        assert_eq!(
+            json["calibration"]["calibration_unused"],
+            serde_json::json!([])
+        );
+
+        let laser = with.replace(
+            "power_w = 500.0",
+            "source = \"laser\"\nbeam_radius_mm = 1.0\npower_w = 500.0",
+        );
+        let s = ReplayScenario::parse(&laser, "r.toml", &dir).unwrap();
+        assert_eq!(
+            s.laying.efficiency, 0.5,
+            "a laser keeps its own absorptivity"
+        );
+        assert_eq!(s.thermal.emissivity, 0.35);
+        let unused = &s.to_json()["calibration"]["calibration_unused"];
+        assert_eq!(unused[0]["name"], "efficiency");
+        assert!(
+            unused[0]["why"].as_str().unwrap().contains("arc"),
+            "{unused}"
+        );
+
+        let missing = with.replace("cal.json", "none.json");
+        let e = ReplayScenario::parse(&missing, "r.toml", &dir).unwrap_err();
+        assert!(e.message.contains("none.json"), "{}", e.message);
+        assert_eq!(e.exit_code(), 2);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -155,52 +155,31 @@ fn priors(s: &ReplayScenario, live: &Live, r: &Replay) -> Result<Vec<Uncertain>>
         .collect())
 }
 
-/// A calibration.json's fitted values as the prior: its values the means, its 95 % intervals
-/// the spreads (±1.96 sd), its search ranges the bounds.
+/// A calibration.json's fitted values as the prior: its values the means, their standard
+/// deviations (the covariance's diagonal, else the 95 % interval's) the spreads, its search
+/// ranges the bounds. A name this waamtwin does not know is an error here: a prior that
+/// silently left out a parameter would be certain of it.
 fn prior_of_calibration(file: &Path) -> Result<Vec<Uncertain>> {
-    let name = file.display();
-    let text = super::replay::read(file)?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Error::input(format!("{name}: {e}; expected a calibration.json")))?;
-    let Some(list) = v.get("parameters").and_then(|p| p.as_array()) else {
+    let f = crate::scenario::calibration::read(file)?;
+    if let Some((name, _)) = f.unknown.first() {
         return Err(Error::input(format!(
-            "{name}: no `parameters` list; expected a calibration.json"
+            "{}: parameter {name} is not one the twin learns; expected {}",
+            file.display(),
+            Parameter::ALL.map(|p| p.key()).join(", ")
         )));
-    };
-    list.iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let key = p.get("name").and_then(|n| n.as_str()).unwrap_or("");
-            let num = |f: &str| p.get(f).and_then(|x| x.as_f64());
-            let parameter = Parameter::ALL.iter().find(|q| q.key() == key);
-            let (Some(&parameter), Some(value), Some(low), Some(high)) =
-                (parameter, num("value"), num("low"), num("high"))
-            else {
-                return Err(Error::input(format!(
-                    "{name}: parameters[{k}] = {p}; expected name, value, low and high"
-                )));
-            };
-            if !(low < high && (low..=high).contains(&value)) {
-                return Err(Error::input(format!(
-                    "{name}: parameters[{k}] {key} = {value} in [{low}, {high}]; expected a \
-                     value inside its range"
-                )));
-            }
-            let ci = p
-                .get("ci95")
-                .and_then(|c| c.as_array())
-                .and_then(|c| Some([c.first()?.as_f64()?, c.get(1)?.as_f64()?]));
-            let sd = ci.map_or((high - low) / 4.0, |[a, b]| {
-                ((b - a) / (2.0 * 1.96)).max(1e-9)
-            });
-            Ok(Uncertain {
-                parameter,
-                range: Range { low, high },
-                mean: value,
-                sd,
-            })
+    }
+    Ok(f.fitted
+        .iter()
+        .map(|p| Uncertain {
+            parameter: p.parameter,
+            range: Range {
+                low: p.low,
+                high: p.high,
+            },
+            mean: p.value,
+            sd: p.sd.unwrap_or((p.high - p.low) / 4.0).max(1e-9),
         })
-        .collect()
+        .collect())
 }
 
 /// A row's readings in °C, those below ambient dropped (counted), as replay reads them.

@@ -1,0 +1,140 @@
+//! `[calibration] file` in a part's scenario (issue 29, item 1): `simulate` runs at the
+//! calibrated values, manifest.json says what was carried and what not, and a study case keeps
+//! the values it sets itself.
+
+use crate::{root, scratch, waamtwin};
+use std::path::Path;
+
+const PART: &str = "[part]\nshape = \"cylinder\"\nradius_mm = 25.0\nheight_mm = 14.0\nedge_mm = 2.5\n\
+    [planner]\nn_points = 40\n[thermal]\nplate_mm = [100.0, 100.0, 8.0]\n\
+    [output]\nrerun = false\nmcap = false\nhdf5 = false\nreport = false\nplots = false\n";
+
+/// What `calibrate` writes, cut to what a scenario reads: an arc's efficiency, a convection,
+/// and a name this waamtwin does not know.
+const CALIBRATION: &str = r#"{"parameters": [
+    {"name": "efficiency", "value": 0.5, "low": 0.2, "high": 0.95, "ci95": [0.45, 0.55]},
+    {"name": "convection_w_m2k", "value": 40.0, "low": 5.0, "high": 150.0, "ci95": [30.0, 50.0]},
+    {"name": "wire_stickout_mm", "value": 12.0, "low": 5.0, "high": 20.0}],
+  "covariance": [[0.0006, -0.05, 0.0], [-0.05, 26.0, 0.0], [0.0, 0.0, 1.0]],
+  "heat_source": "arc"}"#;
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn simulate(dir: &Path, name: &str, scenario: &str) -> (serde_json::Value, serde_json::Value) {
+    std::fs::write(dir.join(format!("{name}.toml")), scenario).unwrap();
+    let out = dir.join(name);
+    let o = waamtwin(&[
+        "simulate",
+        dir.join(format!("{name}.toml")).to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (
+        json(&out.join("thermal.json")),
+        json(&out.join("manifest.json")),
+    )
+}
+
+#[test]
+fn simulate_runs_at_the_calibrated_values() {
+    let dir = scratch("calibration_simulate");
+    std::fs::write(dir.join("calibration.json"), CALIBRATION).unwrap();
+    let (plain, _) = simulate(&dir, "plain", PART);
+    let (cal, manifest) = simulate(
+        &dir,
+        "calibrated",
+        &format!("{PART}[calibration]\nfile = \"calibration.json\"\n"),
+    );
+    // The same run as the values written into the scenario by hand, to the bit.
+    let by_hand = PART.replace("[thermal]\n", "[thermal]\nconvection_w_m2k = 40.0\n");
+    let (hand, _) = simulate(
+        &dir,
+        "by_hand",
+        &format!("{by_hand}[process]\nefficiency = 0.5\n"),
+    );
+    for key in [
+        "energy_in_j",
+        "energy_lost_j",
+        "max_preheat_c",
+        "risky_revolutions",
+    ] {
+        assert_eq!(cal[key], hand[key], "{key}");
+    }
+    // And not the scenario's own: less heat in (η 0.5 against the default 0.85), cooler.
+    assert!(cal["energy_in_j"].as_f64() < plain["energy_in_j"].as_f64());
+    assert!(cal["max_preheat_c"].as_f64() < plain["max_preheat_c"].as_f64());
+    let c = &manifest["scenario"]["calibration"];
+    assert_eq!(manifest["scenario"]["process"]["efficiency"], 0.5);
+    assert_eq!(manifest["scenario"]["thermal"]["convection_w_m2k"], 40.0);
+    let applied: Vec<(&str, f64)> = c["applied"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| {
+            (
+                a["name"].as_str().unwrap(),
+                a["scenario_value"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(applied, [("efficiency", 0.85), ("convection_w_m2k", 15.0)]);
+    let unused = c["calibration_unused"].as_array().unwrap();
+    assert_eq!(unused.len(), 1, "{unused:?}");
+    assert_eq!(unused[0]["name"], "wire_stickout_mm");
+}
+
+#[test]
+fn a_study_case_keeps_what_it_sets() {
+    let dir = scratch("calibration_study");
+    std::fs::write(dir.join("calibration.json"), CALIBRATION).unwrap();
+    std::fs::write(
+        dir.join("base.toml"),
+        format!("{PART}[calibration]\nfile = \"calibration.json\"\n"),
+    )
+    .unwrap();
+    let study = dir.join("study.toml");
+    std::fs::write(
+        &study,
+        "base = \"base.toml\"\ncommand = \"simulate\"\n[sweep]\n\"process.efficiency\" = [0.6, 0.7]\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+        .args([
+            "study",
+            study.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cases: Vec<serde_json::Value> = ["0", "1"]
+        .iter()
+        .map(|id| {
+            let d = std::fs::read_dir(out.join("cases"))
+                .unwrap()
+                .filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .find(|p| p.file_name().unwrap().to_string_lossy().ends_with(id))
+                .unwrap();
+            json(&d.join("manifest.json"))
+        })
+        .collect();
+    for (m, eta) in cases.iter().zip([0.6, 0.7]) {
+        assert_eq!(m["scenario"]["process"]["efficiency"], eta, "{m}");
+        assert_eq!(m["scenario"]["thermal"]["convection_w_m2k"], 40.0);
+        let why: Vec<&str> = m["scenario"]["calibration"]["calibration_unused"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|u| u["name"] == "efficiency")
+            .map(|u| u["why"].as_str().unwrap())
+            .collect();
+        assert!(why.len() == 1 && why[0].contains("study case"), "{m}");
+    }
+}
