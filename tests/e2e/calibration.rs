@@ -138,3 +138,73 @@ fn a_study_case_keeps_what_it_sets() {
         assert!(why.len() == 1 && why[0].contains("study case"), "{m}");
     }
 }
+
+/// `[dwell] confidence = 0.95` on a calibration with a spread: the plan at the mean breaks
+/// under about half the fresh draws, the plan at 95 % under about one in twenty, and the design
+/// point stands for each point's 95th percentile. 40 draws: a probability's standard error is
+/// at most 0.08, 0.034 at 5 %; the bounds below are three of them.
+#[test]
+fn a_plan_at_95_percent_holds_under_fresh_draws() {
+    let dir = scratch("calibration_confidence");
+    std::fs::write(
+        dir.join("calibration.json"),
+        r#"{"parameters": [
+            {"name": "efficiency", "value": 0.7, "low": 0.2, "high": 0.95, "ci95": [0.6, 0.8]},
+            {"name": "convection_w_m2k", "value": 20.0, "low": 5.0, "high": 150.0}],
+          "covariance": [[0.0026, -0.1], [-0.1, 26.0]], "heat_source": "arc"}"#,
+    )
+    .unwrap();
+    let scenario = format!(
+        "{PART}[calibration]\nfile = \"calibration.json\"\n[dwell]\nconfidence = 0.95\ncheck_draws = 40\n"
+    );
+    std::fs::write(dir.join("s.toml"), &scenario).unwrap();
+    let out = dir.join("out");
+    let o = waamtwin(&[
+        "dwell",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--no-baselines",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d = json(&out.join("dwell.json"));
+    let f = |k: &str| d[k].as_f64().unwrap_or_else(|| panic!("{k} in {d}"));
+    assert_eq!(f("confidence"), 0.95);
+    assert!(f("dwell_s") > f("dwell_s_at_mean"), "{d}");
+    assert!(f("arc_stops") >= f("arc_stops_at_mean"));
+    let (p, p_mean) = (
+        f("violation_probability"),
+        f("violation_probability_at_mean"),
+    );
+    assert!(p <= 0.05 + 3.0 * 0.034, "95 % plan violated under {p}");
+    assert!(
+        (0.5 - p_mean).abs() <= 3.0 * 0.08,
+        "mean plan violated under {p_mean}"
+    );
+    let c = &d["confidence_detail"];
+    // The design point is on the hot side: more heat in, less convection out.
+    assert!(c["design_point"]["efficiency"].as_f64() > Some(0.7), "{c}");
+    assert!(
+        c["design_point"]["convection_w_m2k"].as_f64() < Some(20.0),
+        "{c}"
+    );
+    // Against the mean preheat's spread of ~10 K (mean_preheat_sd_k), the design point's
+    // preheats sit within a third of it of the draws' 95th percentiles.
+    let spread = c["mean_preheat_sd_k"].as_f64().unwrap();
+    let rms = c["quantile_check"]["rms_k"].as_f64().unwrap();
+    assert!(spread > 3.0 && rms < spread / 3.0, "{c}");
+
+    // Without a calibration, a confidence has nothing to stand on.
+    std::fs::write(
+        dir.join("bad.toml"),
+        format!("{PART}[dwell]\nconfidence = 0.95\n"),
+    )
+    .unwrap();
+    let o = waamtwin(&[
+        "dwell",
+        dir.join("bad.toml").to_str().unwrap(),
+        "-o",
+        dir.join("bad").to_str().unwrap(),
+    ]);
+    crate::assert_input_error(&o, &["dwell.confidence", "[calibration]"]);
+}

@@ -41,6 +41,146 @@ pub fn run(
     Ok(line)
 }
 
+/// A dwell search's plan and what it was weighed against.
+struct Searched {
+    plan: DwellPlan,
+    budget: Option<(usize, arc_stops::Budgeted)>,
+    search_s: f64,
+    revolution: DwellPlan,
+    searched: usize,
+    searched_build_s: f64,
+    kept: arc_stops::Kept,
+}
+
+/// The dwell search (within the arc-stop budget where there is one), the revolution-dwell
+/// yardstick, and the better of the two.
+fn search(b: &Build, ck: &mut Checkpoints<'_>) -> Result<Searched> {
+    let (plan, budget, search_s) = {
+        let _stage = Stage::start("planning the dwells");
+        match b.params.dwell.max_arc_stops {
+            Some(max) => {
+                let (r, wall_s) = ck.stage("search", |_, _| arc_stops::within_budget(b, max))?;
+                (r.plan.clone(), Some((max, r)), wall_s)
+            }
+            None => {
+                let weight = b.params.dwell.count_weight_s;
+                let (plan, wall_s) = ck.stage("search", |ck, progress| {
+                    b.plan_dwells_kept(weight, ck, progress)
+                })?;
+                (plan, None, wall_s)
+            }
+        }
+    };
+    let revolution = {
+        let _stage = Stage::start("the yardstick: one dwell before each revolution");
+        ck.stage("revolution_dwell", |_, _| b.revolution_dwells())?
+            .0
+    };
+    let searched = arc_stops::arc_stops(&plan);
+    let searched_build_s = arc_stops::build_time_s(b, &plan);
+    let (plan, kept) = arc_stops::never_worse(b, plan, &revolution);
+    Ok(Searched {
+        plan,
+        budget,
+        search_s,
+        revolution,
+        searched,
+        searched_build_s,
+        kept,
+    })
+}
+
+/// The plan at the calibration's mean, and the design point of its cooling.
+struct AtMean {
+    build: Build,
+    plan: DwellPlan,
+    design: crate::pipeline::confidence::DesignPoint,
+    uncertainty: crate::pipeline::confidence::Uncertainty,
+}
+
+fn plan_at_mean(b: &Build, c: &crate::pipeline::confidence::Settings) -> Result<AtMean> {
+    let plan = {
+        let _stage = Stage::start("the plan at the calibration's mean");
+        search(b, &mut Checkpoints::off())?.plan
+    };
+    let _stage = Stage::start("the design point: a run a standard deviation off per parameter");
+    let design =
+        crate::pipeline::confidence::design_point(b, &c.uncertainty, c.confidence, &plan.cooling)?;
+    Ok(AtMean {
+        build: b.clone(),
+        plan,
+        design,
+        uncertainty: c.uncertainty.clone(),
+    })
+}
+
+/// The plan at θ* and the plan at the mean, each under the same fresh draws.
+fn check_both(
+    b: &Build,
+    m: &AtMean,
+    c: &crate::pipeline::confidence::Settings,
+    cooling: &Cooling,
+    safe: &[bool],
+) -> Result<(
+    crate::pipeline::confidence::Check,
+    crate::pipeline::confidence::Check,
+)> {
+    use crate::pipeline::confidence::{check, draws};
+    let x = draws(&m.uncertainty, c.check_draws, c.seed);
+    let q = c.confidence;
+    let star = check(b, &m.uncertainty, cooling, safe, &x, q)?;
+    let own = m.build.simulate_cooled(&m.plan.cooling, 0, Vec::new())?;
+    let safe_mean: Vec<bool> = own
+        .risks(&m.build.criteria)
+        .iter()
+        .map(|r| r.is_none())
+        .collect();
+    let mean = check(&m.build, &m.uncertainty, &m.plan.cooling, &safe_mean, &x, q)?;
+    Ok((star, mean))
+}
+
+/// dwell.json's `confidence_detail`: the design point, and how well it stands for the quantile.
+fn confidence_json(
+    m: &AtMean,
+    c: &crate::pipeline::confidence::Settings,
+    check: &crate::pipeline::confidence::Check,
+    check_mean: &crate::pipeline::confidence::Check,
+    after: &Simulation,
+) -> Value {
+    let u = &m.uncertainty;
+    let names: Vec<&str> = u.parameters.iter().map(|p| p.key()).collect();
+    // Each point's preheat at θ* against its empirical q-quantile over the draws.
+    let diff: Vec<f64> = after
+        .result
+        .points
+        .iter()
+        .zip(&check.preheat_quantile_k)
+        .map(|(p, q)| p.preheat - q)
+        .collect();
+    let n = diff.len().max(1) as f64;
+    json!({
+        "method": "design point (first-order reliability), checked on fresh draws",
+        "parameters": names,
+        "mean": u.mean,
+        "sd": u.sd(),
+        "covariance": u.covariance,
+        "design_point": u.parameters.iter().zip(&m.design.x).map(|(p, x)| (p.key().to_string(), json!(x))).collect::<serde_json::Map<_, _>>(),
+        "z": m.design.z,
+        "mean_preheat_gradient_k_per_unit": m.design.gradient_k,
+        "mean_preheat_sd_k": m.design.preheat_sd_k,
+        "check_draws": check.draws,
+        "check_seed": c.seed,
+        "violated_draws": check.violated,
+        "violated_draws_at_mean": check_mean.violated,
+        "quantile_check": {
+            "what": "per point: preheat at the design point less the empirical quantile over the draws",
+            "mean_k": diff.iter().sum::<f64>() / n,
+            "rms_k": (diff.iter().map(|d| d * d).sum::<f64>() / n).sqrt(),
+            "max_abs_k": diff.iter().fold(0.0_f64, |a, d| a.max(d.abs())),
+        },
+    })
+}
+
 /// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
 /// the cache's cooled copies: about four models at once), about 2.5 builds' worth of search
 /// (docs/PERFORMANCE.md), the run without dwells and the one with them (dwells about double
@@ -49,7 +189,14 @@ fn keeps(s: &Scenario) -> super::cost::Keeps {
     super::cost::Keeps {
         copies: 4.0,
         frames: s.output.frames,
-        runs: 1.0 + 2.5 + 2.0,
+        // At a confidence: the plan at the mean too, a run per parameter for the design point,
+        // and both plans under every fresh draw.
+        runs: 1.0
+            + 2.5
+            + 2.0
+            + s.confidence.as_ref().map_or(0.0, |c| {
+                4.5 + (c.uncertainty.mean.len() + 2) as f64 + 4.0 * c.check_draws as f64
+            }),
         recorded: s.output.records(),
     }
 }
@@ -67,6 +214,16 @@ pub fn plan_and_dwell(
 ) -> Result<String> {
     let part = load_part(&s.part)?;
     let b = super::plan::build(s, &part)?;
+    // At a confidence: the plan at the mean first, its design point θ*, and the build at θ*
+    // that the rest of this command plans and judges (pipeline::confidence).
+    let at_mean = match &s.confidence {
+        Some(c) => Some(plan_at_mean(&b, c)?),
+        None => None,
+    };
+    let b = match &at_mean {
+        Some(m) => crate::pipeline::confidence::build_at(&b, &m.uncertainty, &m.design.x),
+        None => b,
+    };
     let mut folder = match resume {
         Some(o) => {
             let print = checkpoint::of_run("dwell", &s.to_json(), b.deposits());
@@ -87,30 +244,15 @@ pub fn plan_and_dwell(
         None => Checkpoints::off(),
     };
     let before = heat(&b, &Cooling::default(), 0, &mut ck, "before")?;
-    let (plan, budget, search_s) = {
-        let _stage = Stage::start("planning the dwells");
-        match b.params.dwell.max_arc_stops {
-            Some(max) => {
-                let (r, wall_s) = ck.stage("search", |_, _| arc_stops::within_budget(&b, max))?;
-                (r.plan.clone(), Some((max, r)), wall_s)
-            }
-            None => {
-                let weight = b.params.dwell.count_weight_s;
-                let (plan, wall_s) = ck.stage("search", |ck, progress| {
-                    b.plan_dwells_kept(weight, ck, progress)
-                })?;
-                (plan, None, wall_s)
-            }
-        }
-    };
-    let revolution = {
-        let _stage = Stage::start("the yardstick: one dwell before each revolution");
-        ck.stage("revolution_dwell", |_, _| b.revolution_dwells())?
-            .0
-    };
-    let searched = arc_stops::arc_stops(&plan);
-    let searched_build_s = arc_stops::build_time_s(&b, &plan);
-    let (plan, kept) = arc_stops::never_worse(&b, plan, &revolution);
+    let Searched {
+        plan,
+        budget,
+        search_s,
+        revolution,
+        searched,
+        searched_build_s,
+        kept,
+    } = search(&b, &mut ck)?;
     let bound = match &budget {
         Some((_, r)) => r.bound.clone(),
         None => {
@@ -181,6 +323,18 @@ pub fn plan_and_dwell(
         "single_build_wall_s": before.wall_clock_s,
         "search_cost_in_builds": search_s / before.wall_clock_s.max(1e-9),
     });
+    if let (Some(m), Some(c)) = (&at_mean, &s.confidence) {
+        let _stage = Stage::start("the plans under fresh parameter draws");
+        summary["confidence"] = json!(c.confidence);
+        summary["dwell_s"] = json!(total);
+        summary["dwell_s_at_mean"] = json!(m.plan.cooling.total_dwell_s());
+        summary["arc_stops_at_mean"] = json!(m.plan.cooling.arc_stops());
+        let safe: Vec<bool> = risks_after.iter().map(|r| r.is_none()).collect();
+        let (check, check_mean) = check_both(&b, m, c, &plan.cooling, &safe)?;
+        summary["violation_probability"] = json!(check.violation_probability());
+        summary["violation_probability_at_mean"] = json!(check_mean.violation_probability());
+        summary["confidence_detail"] = confidence_json(m, c, &check, &check_mean, &after);
+    }
     if let Some((max, r)) = &budget {
         summary["arc_stop_budget"] = json!({
             "max_arc_stops": max,

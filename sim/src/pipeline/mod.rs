@@ -39,6 +39,7 @@ pub mod beads;
 pub mod bound;
 pub mod calibrate;
 pub mod checkpoint;
+pub mod confidence;
 pub mod cost;
 pub mod deposition;
 pub mod dwell;

@@ -64,6 +64,8 @@ pub struct Scenario {
     pub skeleton: SkeletonSettings,
     /// `[calibration] file`: what it carried in (already in the sections above) and what not.
     pub calibration: Option<calibration::Carried>,
+    /// `[dwell] confidence`: plan at that quantile of the calibration's uncertainty.
+    pub confidence: Option<crate::pipeline::confidence::Settings>,
     /// The resolved input, echoed into `manifest.json`.
     pub raw: RawScenario,
 }
@@ -148,6 +150,7 @@ impl Scenario {
             bead: bead(&raw.bead, c)?,
             output: raw.output.clone(),
             skeleton: skeleton(&raw.skeleton, c)?,
+            confidence: confidence(&raw.dwell, calibration.as_ref(), c)?,
             calibration,
             raw,
         })
@@ -505,6 +508,72 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
 }
 
 /// `[dwell]`; the closing zone defaults to three bead widths.
+/// `[dwell] confidence`: the quantile, and the calibration's applied parameters as a normal
+/// distribution (their covariance, else their standard deviations alone).
+fn confidence(
+    d: &RawDwell,
+    cal: Option<&calibration::Carried>,
+    c: &Checker,
+) -> Result<Option<crate::pipeline::confidence::Settings>> {
+    let Some(q) = d.confidence else {
+        return Ok(None);
+    };
+    c.range("dwell", "confidence", q, 0.5, 1.0, "a quantile in [0.5, 1)")?;
+    if q >= 1.0 {
+        return Err(c.fail("dwell", "confidence", q, "a quantile in [0.5, 1)"));
+    }
+    if !(1..=10_000).contains(&d.check_draws) {
+        return Err(c.fail("dwell", "check_draws", d.check_draws, "1 to 10000"));
+    }
+    let none = |why: &str| {
+        c.fail_text(
+            "dwell",
+            "confidence",
+            format!("confidence = {q} {why}; expected a [calibration] file with its fit's spread"),
+        )
+    };
+    let Some(cal) = cal else {
+        return Err(none("without a [calibration]"));
+    };
+    let (fits, cov) = cal.applied_fits();
+    if fits.is_empty() {
+        return Err(none("with no calibrated parameter applied"));
+    }
+    let sd: Vec<f64> = fits
+        .iter()
+        .map(|f| {
+            f.sd.ok_or_else(|| none(&format!("with no spread for {}", f.parameter.key())))
+        })
+        .collect::<Result<_>>()?;
+    let n = fits.len();
+    let covariance = cov.unwrap_or_else(|| {
+        (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| if i == j { sd[i] * sd[i] } else { 0.0 })
+                    .collect()
+            })
+            .collect()
+    });
+    Ok(Some(crate::pipeline::confidence::Settings {
+        confidence: q,
+        check_draws: d.check_draws,
+        seed: d.check_seed,
+        uncertainty: crate::pipeline::confidence::Uncertainty {
+            parameters: fits.iter().map(|f| f.parameter).collect(),
+            mean: fits.iter().map(|f| f.value).collect(),
+            covariance,
+            bounds: fits
+                .iter()
+                .map(|f| {
+                    let [lo, hi] = f.parameter.limits();
+                    [f.low.max(lo), f.high.min(hi)]
+                })
+                .collect(),
+        },
+    }))
+}
+
 fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings> {
     c.range(
         "dwell",

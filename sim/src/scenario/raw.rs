@@ -323,6 +323,14 @@ pub struct RawDwell {
     /// three bead widths.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub closing_zone_mm: Option<f64>,
+    /// Plan so every point meets the criteria at this quantile of `[calibration]`'s
+    /// uncertainty; absent: at the mean.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub confidence: Option<f64>,
+    /// Fresh parameter draws the final plan is checked under (with `confidence`).
+    pub check_draws: usize,
+    /// The draws' seed.
+    pub check_seed: u64,
 }
 
 impl Default for RawDwell {
@@ -343,6 +351,9 @@ impl Default for RawDwell {
             margin_c: 2.0,
             count_weight_s: 0.0,
             closing_zone_mm: None,
+            confidence: None,
+            check_draws: 100,
+            check_seed: 1,
         }
     }
 }

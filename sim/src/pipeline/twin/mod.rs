@@ -154,7 +154,7 @@ fn values_of(r: &Replay, priors: &[Uncertain], x: &[f64]) -> Values {
 }
 
 /// Standard normal draws (Box–Muller on ChaCha's uniforms: the same on every platform).
-fn normals(rng: &mut rand_chacha::ChaCha8Rng, n: usize) -> Vec<f64> {
+pub(crate) fn normals(rng: &mut rand_chacha::ChaCha8Rng, n: usize) -> Vec<f64> {
     (0..n)
         .map(|_| {
             let (u1, u2): (f64, f64) = (rng.random(), rng.random());
