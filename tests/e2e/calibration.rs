@@ -154,14 +154,14 @@ fn a_plan_at_95_percent_holds_under_fresh_draws() {
           "covariance": [[0.0026, -0.1], [-0.1, 26.0]], "heat_source": "arc"}"#,
     )
     .unwrap();
-    let scenario = format!(
-        "{PART}[calibration]\nfile = \"calibration.json\"\n[dwell]\nconfidence = 0.95\ncheck_draws = 40\n"
-    );
-    std::fs::write(dir.join("s.toml"), &scenario).unwrap();
+    let plain = format!("{PART}[calibration]\nfile = \"calibration.json\"\n");
+    std::fs::write(dir.join("s.toml"), &plain).unwrap();
+    let scenario = format!("{plain}[dwell]\nconfidence = 0.95\ncheck_draws = 40\n");
+    std::fs::write(dir.join("s95.toml"), &scenario).unwrap();
     let out = dir.join("out");
     let o = waamtwin(&[
         "dwell",
-        dir.join("s.toml").to_str().unwrap(),
+        dir.join("s95.toml").to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
         "--no-baselines",
@@ -194,6 +194,82 @@ fn a_plan_at_95_percent_holds_under_fresh_draws() {
     let rms = c["quantile_check"]["rms_k"].as_f64().unwrap();
     assert!(spread > 3.0 && rms < spread / 3.0, "{c}");
 
+    // Item 3: the plan's path.csv replayed as laid. At the design point it gives the dwell
+    // run's own revolutions back (path.csv keeps dwells to the millisecond).
+    let design = &c["design_point"];
+    std::fs::copy(out.join("path.csv"), dir.join("plan95.csv")).unwrap();
+    let at_design = PART.replace(
+        "[thermal]\n",
+        &format!(
+            "[thermal]\nconvection_w_m2k = {}\n",
+            design["convection_w_m2k"]
+        ),
+    ) + &format!(
+        "[process]\nefficiency = {}\n[toolpath]\nfile = \"plan95.csv\"\nformat = \"path\"\n",
+        design["efficiency"]
+    );
+    let replayed = replay(&dir, "design", &at_design);
+    let layers = |d: &Path| crate::read_csv(&d.join("layers.csv")).1;
+    let (mine, dwelled) = (layers(&replayed), layers(&out));
+    assert_eq!(mine.len(), dwelled.len());
+    for (a, b) in mine.iter().zip(&dwelled) {
+        let (x, y): (f64, f64) = (a[3].parse().unwrap(), b[3].parse().unwrap());
+        assert!(
+            (x - y).abs() < 0.05,
+            "preheat_max_c {x} against the dwell run's {y}"
+        );
+        assert_eq!(a[6], b[6], "risk");
+    }
+    // One standard deviation to the hot side on every parameter: the 95 % plan holds, the plan
+    // at the mean (planned here without a confidence) breaks.
+    let mean_plan = dir.join("mean");
+    let o = waamtwin(&[
+        "dwell",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        mean_plan.to_str().unwrap(),
+        "--no-baselines",
+    ]);
+    assert!(o.status.success());
+    std::fs::copy(mean_plan.join("path.csv"), dir.join("plan_mean.csv")).unwrap();
+    let hot = |plan: &str| {
+        format!(
+            "{PART}[calibration]\nfile = \"calibration.json\"\nhot_side_sd = 1.0\n\
+             [toolpath]\nfile = \"{plan}\"\nformat = \"path\"\n"
+        )
+    };
+    let risky = |d: &Path| json(&d.join("thermal.json"))["risky_revolutions"].clone();
+    let held = replay(&dir, "hot95", &hot("plan95.csv"));
+    assert_eq!(
+        risky(&held),
+        serde_json::json!([]),
+        "the 95 % plan, 1 sd hot"
+    );
+    let m = json(&held.join("manifest.json"));
+    assert!(m["scenario"]["process"]["efficiency"].as_f64() > Some(0.7));
+    let broke = replay(&dir, "hot_mean", &hot("plan_mean.csv"));
+    assert_ne!(
+        risky(&broke),
+        serde_json::json!([]),
+        "the mean plan, 1 sd hot"
+    );
+
+    // A path.csv that is not this part's plan is named, with the point and both places.
+    let text = std::fs::read_to_string(dir.join("plan95.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut f: Vec<String> = lines[3].split(',').map(String::from).collect();
+    f[1] = format!("{:.4}", f[1].parse::<f64>().unwrap() + 0.5);
+    lines[3] = f.join(",");
+    std::fs::write(dir.join("moved.csv"), lines.join("\n") + "\n").unwrap();
+    std::fs::write(dir.join("moved.toml"), hot("moved.csv")).unwrap();
+    let o = waamtwin(&[
+        "replay",
+        dir.join("moved.toml").to_str().unwrap(),
+        "-o",
+        dir.join("moved").to_str().unwrap(),
+    ]);
+    crate::assert_input_error(&o, &["moved.csv line 4: point 2", "this scenario's plan"]);
+
     // Without a calibration, a confidence has nothing to stand on.
     std::fs::write(
         dir.join("bad.toml"),
@@ -207,4 +283,18 @@ fn a_plan_at_95_percent_holds_under_fresh_draws() {
         dir.join("bad").to_str().unwrap(),
     ]);
     crate::assert_input_error(&o, &["dwell.confidence", "[calibration]"]);
+}
+
+/// `waamtwin replay` of `scenario` (written as NAME.toml in `dir`) into `dir/NAME`.
+fn replay(dir: &Path, name: &str, scenario: &str) -> std::path::PathBuf {
+    std::fs::write(dir.join(format!("{name}.toml")), scenario).unwrap();
+    let out = dir.join(name);
+    let o = waamtwin(&[
+        "replay",
+        dir.join(format!("{name}.toml")).to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out
 }

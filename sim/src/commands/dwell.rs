@@ -451,7 +451,30 @@ pub fn plan_and_dwell(
     }
     super::plan::write_plan(dir, s, &b)?;
     write_thermal(dir, &b, &after)?;
-    record(dir, s, &part, &b, &after, Some(&before), Some(bound.stops))?;
+    let sure = summary["violation_probability"].as_f64().map(|p| {
+        let c = &summary["confidence_detail"];
+        format!(
+            "planned at {:.0} % of the calibration's uncertainty (at the design point {}): some \
+             point breaks a criterion under {:.0} % of {} fresh parameter draws (the plan at \
+             the mean: {:.0} %, {:.0} s of dwell against this plan's {:.0} s)",
+            100.0 * summary["confidence"].as_f64().unwrap_or(0.0),
+            c["design_point"],
+            100.0 * p,
+            c["check_draws"],
+            100.0
+                * summary["violation_probability_at_mean"]
+                    .as_f64()
+                    .unwrap_or(0.0),
+            summary["dwell_s_at_mean"].as_f64().unwrap_or(0.0),
+            total
+        )
+    });
+    let dwelled = super::simulate::Dwelled {
+        before: &before,
+        arc_stops_lower_bound: bound.stops,
+        confidence: sure,
+    };
+    record(dir, s, &part, &b, &after, Some(dwelled))?;
     let mut csv = String::from("i,layer,t_s,dwell_s,reason,x_mm,y_mm,z_mm\n");
     for (i, &d) in plan.dwell_s().iter().enumerate() {
         if c.strikes(i) {

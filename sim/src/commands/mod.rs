@@ -11,6 +11,7 @@ pub mod geodesic;
 pub mod inspect;
 pub mod plan;
 pub mod replay;
+pub mod replay_plan;
 pub mod simulate;
 pub mod skeleton;
 pub mod study;

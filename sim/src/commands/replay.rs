@@ -13,6 +13,7 @@ use crate::pipeline::replay::{
     self, Compared, Pass, Replay, in_celsius, overall, sampling_interval,
 };
 use crate::progress::Stage;
+use crate::scenario::Scenario;
 use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
 use serde_json::json;
 use std::fmt::Write;
@@ -42,6 +43,10 @@ pub(crate) fn names(p: &Probes) -> Vec<String> {
 }
 
 pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<String> {
+    // A part's scenario with its planned path.csv: the plan replayed as laid.
+    if std::fs::read_to_string(scenario).is_ok_and(|t| Scenario::is_planned_path(&t)) {
+        return super::replay_plan::run(scenario, out, resume);
+    }
     let s = ReplayScenario::load(scenario)?;
     let (measured, dropped) = match &s.probes {
         Some(p) => {

@@ -45,7 +45,7 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let sim = heat(&b, &Cooling::default(), s.output.frames, &mut ck, "heat")?;
     super::plan::write_plan(&mut dir, &s, &b)?;
     write_thermal(&mut dir, &b, &sim)?;
-    record(&mut dir, &s, &part, &b, &sim, None, None)?;
+    record(&mut dir, &s, &part, &b, &sim, None)?;
     dir.finish("simulate", s.to_json())?;
     folder.close()?;
     Ok(summary(&b, &sim))
@@ -74,14 +74,21 @@ pub fn heat(
 
 /// The inspection outputs the scenario switches on (`[output]`): run.rrd, run.mcap, fields.h5
 /// and the plots. `before` is the same build without dwells, where dwells were planned.
+/// What a dwell run adds to its recordings: the run without dwells, the fewest arc stops any
+/// plan can make, and how sure the plan is (where planned at a confidence).
+pub struct Dwelled<'a> {
+    pub before: &'a Simulation,
+    pub arc_stops_lower_bound: usize,
+    pub confidence: Option<String>,
+}
+
 pub fn record(
     dir: &mut RunDir,
     s: &Scenario,
     part: &Part,
     b: &Build,
     sim: &Simulation,
-    before: Option<&Simulation>,
-    arc_stops_lower_bound: Option<usize>,
+    dwelled: Option<Dwelled<'_>>,
 ) -> Result<()> {
     let sinks = crate::record::sinks(&s.output);
     if sinks.is_empty() {
@@ -95,9 +102,10 @@ pub fn record(
         part: &part.mesh,
         build: b,
         sim,
-        before,
+        before: dwelled.as_ref().map(|d| d.before),
         planar_deposits_mm: Some(planar.all_deposits().collect()),
-        arc_stops_lower_bound,
+        arc_stops_lower_bound: dwelled.as_ref().map(|d| d.arc_stops_lower_bound),
+        confidence: dwelled.and_then(|d| d.confidence),
     });
     crate::record::record(&scene, sinks, dir)
 }

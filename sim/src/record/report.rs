@@ -270,7 +270,11 @@ fn page(scene: &Scene, plots: &[(&str, &str, Vec<u8>)], files: &[(&str, &str)]) 
         };
         ("closing strategy", text)
     });
-    for (k, v) in rows.into_iter().chain(closing) {
+    let sure = scene
+        .confidence
+        .as_ref()
+        .map(|c| ("how sure the plan is", c.clone()));
+    for (k, v) in rows.into_iter().chain(closing).chain(sure) {
         let _ = writeln!(h, "<tr><th>{}</th><td>{}</td></tr>", escape(k), escape(&v));
     }
     h.push_str("</table>\n<h2>Plots</h2>\n");

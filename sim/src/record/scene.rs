@@ -137,6 +137,8 @@ pub struct Scene {
     /// The fewest arc stops any plan of the build can make (`pipeline::bound`), where dwells
     /// were planned.
     pub arc_stops_lower_bound: Option<usize>,
+    /// How sure the plan is, where it was planned at a confidence (one sentence).
+    pub confidence: Option<String>,
 }
 
 /// What a run hands over to be recorded.
@@ -151,6 +153,8 @@ pub struct Run<'a> {
     pub planar_deposits_mm: Option<Vec<f64>>,
     /// The fewest arc stops any plan of the build can make, where dwells were planned.
     pub arc_stops_lower_bound: Option<usize>,
+    /// How sure the plan is, where it was planned at a confidence.
+    pub confidence: Option<String>,
 }
 
 impl Scene {
@@ -206,7 +210,16 @@ impl Scene {
             wall: wall(points.len(), pl.generators.len()),
             layers: layer_records(b, sim),
             layers_without_dwells: r.before.map(|before| layer_records(b, before)),
-            events: events(b, &points, r.before),
+            events: r
+                .confidence
+                .iter()
+                .map(|text| Event {
+                    t_s: 0.0,
+                    level: Level::Info,
+                    text: text.clone(),
+                })
+                .chain(events(b, &points, r.before))
+                .collect(),
             frames,
             histories: sim
                 .result
@@ -230,6 +243,7 @@ impl Scene {
             planar_deposits_mm: r.planar_deposits_mm,
             build_s: sim.deposits.last().map_or(0.0, |d| d.time),
             arc_stops_lower_bound: r.arc_stops_lower_bound,
+            confidence: r.confidence.clone(),
             points,
         }
     }

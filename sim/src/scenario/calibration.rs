@@ -20,6 +20,14 @@ use std::path::{Path, PathBuf};
 pub struct RawCalibration {
     /// A `calibrate` run's calibration.json, relative to the scenario's folder.
     pub file: String,
+    /// Each value this many of its standard deviations to the hot side (more heat in, less
+    /// lost), cut at its range: a plan checked against a machine hotter than the fit's mean.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub hot_side_sd: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 /// One fitted value of a calibration.json.
@@ -55,6 +63,8 @@ pub struct CalibrationFile {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Carried {
     pub file: CalibrationFile,
+    /// The values were moved this many standard deviations to the hot side.
+    pub hot_side_sd: f64,
     /// (parameter, the scenario's value, the calibrated value it now runs at).
     pub applied: Vec<(Parameter, f64, f64)>,
     /// (name, value, why it is not used).
@@ -84,6 +94,7 @@ impl Carried {
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::json!({
             "file": self.file.path.display().to_string(),
+            "hot_side_sd": self.hot_side_sd,
             "applied": self.applied.iter().map(|(p, before, after)| serde_json::json!({
                 "name": p.key(), "scenario_value": before, "value": after,
             })).collect::<Vec<_>>(),
@@ -251,8 +262,15 @@ pub fn carry(
     file: CalibrationFile,
     heat_source: &str,
     kept: &[String],
+    hot_side_sd: f64,
     set: &mut dyn FnMut(Parameter, f64) -> f64,
-) -> Carried {
+) -> Result<Carried> {
+    if !(hot_side_sd.is_finite() && hot_side_sd.abs() <= 10.0) {
+        return Err(Error::input(format!(
+            "calibration.hot_side_sd = {hot_side_sd}; expected a number of standard deviations \
+             in [-10, 10]"
+        )));
+    }
     let mut applied = Vec::new();
     let mut unused: Vec<(String, f64, String)> = file
         .unknown
@@ -289,13 +307,35 @@ pub fn carry(
             ));
             continue;
         }
-        let before = set(f.parameter, f.value);
-        applied.push((f.parameter, before, f.value));
+        let value = if hot_side_sd == 0.0 {
+            f.value
+        } else {
+            let Some(sd) = f.sd else {
+                return Err(Error::input(format!(
+                    "calibration.hot_side_sd = {hot_side_sd} but {} gives no spread for {key} \
+                     (no covariance, no ci95); expected a calibration.json with its fit's spread",
+                    file.path.display()
+                )));
+            };
+            (f.value + hot_side_sd * heating_sign(f.parameter) * sd).clamp(f.low, f.high)
+        };
+        let before = set(f.parameter, value);
+        applied.push((f.parameter, before, value));
     }
-    Carried {
+    Ok(Carried {
         file,
+        hot_side_sd,
         applied,
         unused,
+    })
+}
+
+/// Which way a parameter moves the heat: +1 where more of it heats the part (the efficiency),
+/// −1 where it cools it (the losses).
+pub fn heating_sign(p: Parameter) -> f64 {
+    match p {
+        Parameter::Efficiency => 1.0,
+        _ => -1.0,
     }
 }
 
@@ -353,9 +393,10 @@ mod tests {
     #[test]
     fn a_laser_absorptivity_is_not_an_arc_efficiency() {
         let (mut eta, mut t) = (0.8, super::super::RawThermal::default());
-        let carried = carry(file(), "arc", &[], &mut |p, x| {
+        let carried = carry(file(), "arc", &[], 0.0, &mut |p, x| {
             set_in(&mut eta, &mut t, p, x)
-        });
+        })
+        .unwrap();
         assert_eq!(eta, 0.8);
         assert_eq!(t.convection_w_m2k, 30.0);
         assert_eq!(carried.applied.len(), 1);
@@ -376,11 +417,21 @@ mod tests {
             file(),
             "laser",
             &["thermal.convection_w_m2k".into()],
+            0.0,
             &mut |p, x| set_in(&mut eta, &mut t, p, x),
-        );
+        )
+        .unwrap();
         assert_eq!((eta, t.convection_w_m2k), (0.6, 15.0));
         assert_eq!(carried.applied, vec![(Parameter::Efficiency, 0.8, 0.6)]);
         assert!(carried.notice().unwrap().contains("study case"));
+
+        // One standard deviation to the hot side: more efficiency, less convection.
+        let (mut eta, mut t) = (0.8, super::super::RawThermal::default());
+        carry(file(), "laser", &[], 1.0, &mut |p, x| {
+            set_in(&mut eta, &mut t, p, x)
+        })
+        .unwrap();
+        assert!((eta - 0.62).abs() < 1e-12 && (t.convection_w_m2k - 27.0).abs() < 1e-12);
     }
 
     #[test]

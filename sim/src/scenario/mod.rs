@@ -66,6 +66,8 @@ pub struct Scenario {
     pub calibration: Option<calibration::Carried>,
     /// `[dwell] confidence`: plan at that quantile of the calibration's uncertainty.
     pub confidence: Option<crate::pipeline::confidence::Settings>,
+    /// `[toolpath] format = "path"`: the path.csv of a plan of this part, to replay as laid.
+    pub planned_path: Option<PathBuf>,
     /// The resolved input, echoed into `manifest.json`.
     pub raw: RawScenario,
 }
@@ -77,10 +79,46 @@ impl Scenario {
             .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
         let base = path.parent().unwrap_or(Path::new("."));
         let s = Scenario::parse(&text, &path.display().to_string(), base)?;
+        if s.planned_path.is_some() {
+            return Err(Error::input(format!(
+                "{}: a planned path to replay ([toolpath] format = \"path\"), not a part to \
+                 plan; run it with `waamtwin replay`",
+                path.display()
+            )));
+        }
         if let Some(line) = s.calibration.as_ref().and_then(|c| c.notice()) {
             eprintln!("{line}");
         }
         Ok(s)
+    }
+
+    /// A part's scenario with `[toolpath] format = "path"`: the scenario, and its path.csv.
+    pub fn load_planned(path: &Path) -> Result<(Scenario, PathBuf)> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let s = Scenario::parse(&text, &path.display().to_string(), base)?;
+        if let Some(line) = s.calibration.as_ref().and_then(|c| c.notice()) {
+            eprintln!("{line}");
+        }
+        match s.planned_path.clone() {
+            Some(p) => Ok((s, p)),
+            None => Err(Error::input(format!(
+                "{}: no [toolpath]; expected file = a path.csv and format = \"path\"",
+                path.display()
+            ))),
+        }
+    }
+
+    /// Whether scenario text is a part's with a planned path to replay (`[toolpath] format =
+    /// "path"`), which `replay` runs instead of a measured toolpath.
+    pub fn is_planned_path(text: &str) -> bool {
+        text.parse::<toml::Table>().is_ok_and(|t| {
+            t.get("toolpath")
+                .and_then(|p| p.get("format"))
+                .and_then(|f| f.as_str())
+                == Some("path")
+        })
     }
 
     /// Parse scenario text; `file` names it in messages, with the line of the key.
@@ -107,9 +145,10 @@ impl Scenario {
         lines: bool,
         kept: &[String],
     ) -> Result<Scenario> {
-        if text
-            .parse::<toml::Table>()
-            .is_ok_and(|t| t.contains_key("toolpath"))
+        if !Scenario::is_planned_path(text)
+            && text
+                .parse::<toml::Table>()
+                .is_ok_and(|t| t.contains_key("toolpath"))
         {
             return Err(Error::input(format!(
                 "{file}: a replay scenario (it has [toolpath]), not a part to plan; run it with \
@@ -122,9 +161,13 @@ impl Scenario {
             Some(k) => {
                 let f = calibration::read(&base.join(&k.file))?;
                 let (process, thermal) = (&mut raw.process, &mut raw.thermal);
-                Some(calibration::carry(f, "arc", kept, &mut |p, x| {
-                    calibration::set_in(&mut process.efficiency, thermal, p, x)
-                }))
+                Some(calibration::carry(
+                    f,
+                    "arc",
+                    kept,
+                    k.hot_side_sd,
+                    &mut |p, x| calibration::set_in(&mut process.efficiency, thermal, p, x),
+                )?)
             }
             None => None,
         };
@@ -151,6 +194,7 @@ impl Scenario {
             output: raw.output.clone(),
             skeleton: skeleton(&raw.skeleton, c)?,
             confidence: confidence(&raw.dwell, calibration.as_ref(), c)?,
+            planned_path: raw.toolpath.as_ref().map(|t| base.join(&t.file)),
             calibration,
             raw,
         })

@@ -26,6 +26,17 @@ pub struct RawScenario {
     /// `[calibration] file`: a calibrate run's fitted values replace this file's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub calibration: Option<super::calibration::RawCalibration>,
+    /// `[toolpath] format = "path"`: the part's planned program to replay (`waamtwin replay`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub toolpath: Option<RawPlannedPath>,
+}
+
+/// `[toolpath]` of a part's scenario: a `plan` or `dwell` run's path.csv, replayed as laid.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPlannedPath {
+    pub file: String,
+    pub format: String,
 }
 
 /// Skeleton arc AM (`waamtwin skeleton`; Radel et al. 2019): the part is `[part] mesh`, an OBJ

@@ -506,8 +506,9 @@ impl ReplayScenario {
                     f,
                     &process.source.clone(),
                     &[],
+                    k.hot_side_sd,
                     &mut |p, x| calibration::set_in(&mut process.efficiency, thermal, p, x),
-                ))
+                )?)
             }
             None => None,
         };
@@ -547,7 +548,8 @@ impl ReplayScenario {
                     "toolpath",
                     "format",
                     format!("\"{other}\""),
-                    "\"events\" (t_s, x_mm, y_mm, z_mm, on), \"machine_log\" or \"gcode\"",
+                    "\"events\" (t_s, x_mm, y_mm, z_mm, on), \"machine_log\" or \"gcode\" (\"path\", \
+                     a plan's path.csv, is replayed by `waamtwin replay` on the part's own scenario)",
                 ));
             }
         };
