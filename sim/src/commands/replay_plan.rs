@@ -8,7 +8,7 @@
 //! must be that plan's, point by point: its rows give the cooling, the plan the geometry.
 
 use super::checkpoint;
-use super::cost::{Keeps, check, check_plate};
+use super::cost::{check, check_plate};
 use super::simulate::{heat, record, summary, write_thermal};
 use crate::error::{Error, Result};
 use crate::measured::path::{PathRow, rows};
@@ -27,12 +27,7 @@ const SAME_POINT_MM: f64 = 0.01;
 pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<String> {
     let (s, path_file) = Scenario::load_planned(scenario)?;
     let file = scenario.display().to_string();
-    let keeps = Keeps {
-        copies: 1.0,
-        frames: s.output.frames,
-        runs: 1.0,
-        recorded: s.output.records(),
-    };
+    let keeps = super::simulate::one_run(&s);
     check_plate(&file, &s.thermal, &s.material, keeps)?;
     let part = load_part(&s.part)?;
     let b = super::plan::build(&s, &part)?;

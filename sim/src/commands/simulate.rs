@@ -21,12 +21,7 @@ use thermal::{Cells, celsius};
 pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<String> {
     let s = Scenario::load(scenario)?;
     let file = scenario.display().to_string();
-    let keeps = Keeps {
-        copies: 1.0,
-        frames: s.output.frames,
-        runs: 1.0,
-        recorded: s.output.records(),
-    };
+    let keeps = one_run(&s);
     check_plate(&file, &s.thermal, &s.material, keeps)?;
     let part = load_part(&s.part)?;
     let mut dir = RunDir::create(out)?;
@@ -49,6 +44,16 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     dir.finish("simulate", s.to_json())?;
     folder.close()?;
     Ok(summary(&b, &sim))
+}
+
+/// What one heat run of the scenario keeps (the cost check's input).
+pub fn one_run(s: &Scenario) -> Keeps {
+    Keeps {
+        copies: 1.0,
+        frames: s.output.frames,
+        runs: 1.0,
+        recorded: s.output.records(),
+    }
 }
 
 /// The build heated as `cooling` says, behind a spinner on a terminal; with `frames` > 0 also

@@ -269,7 +269,10 @@ pub struct RawThermal {
     pub lead_mm: f64,
     /// Contact conductance between the plate and the table.
     pub table_contact_w_m2k: f64,
-    pub plate_cell_mm: f64,
+    /// The thin wall's plate cell; absent: the bead width, at most 5 mm
+    /// ([`super::PLATE_CELL_MAX_MM`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plate_cell_mm: Option<f64>,
     /// Shortest thin-wall node along the bead.
     pub node_mm: f64,
     /// Temperature of the metal as it arrives.
@@ -297,7 +300,7 @@ impl Default for RawThermal {
             plate_mm: None,
             lead_mm: 10.0,
             table_contact_w_m2k: 100.0,
-            plate_cell_mm: 5.0,
+            plate_cell_mm: None,
             node_mm: 3.0,
             deposit_c: 1550.0,
             footprint_mm: None,
