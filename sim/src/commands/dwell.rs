@@ -451,22 +451,26 @@ pub fn plan_and_dwell(
     }
     super::plan::write_plan(dir, s, &b)?;
     write_thermal(dir, &b, &after)?;
-    let sure = summary["violation_probability"].as_f64().map(|p| {
-        let c = &summary["confidence_detail"];
+    let sure = at_mean.as_ref().map(|m| {
+        let at: Vec<String> = m
+            .uncertainty
+            .parameters
+            .iter()
+            .zip(&m.design.x)
+            .map(|(p, x)| format!("{} {x:.4}", p.key()))
+            .collect();
+        let share = |k: &str| 100.0 * summary[k].as_f64().unwrap_or(f64::NAN);
         format!(
-            "planned at {:.0} % of the calibration's uncertainty (at the design point {}): some \
-             point breaks a criterion under {:.0} % of {} fresh parameter draws (the plan at \
-             the mean: {:.0} %, {:.0} s of dwell against this plan's {:.0} s)",
-            100.0 * summary["confidence"].as_f64().unwrap_or(0.0),
-            c["design_point"],
-            100.0 * p,
-            c["check_draws"],
-            100.0
-                * summary["violation_probability_at_mean"]
-                    .as_f64()
-                    .unwrap_or(0.0),
-            summary["dwell_s_at_mean"].as_f64().unwrap_or(0.0),
-            total
+            "planned at {:.0} % of the calibration's uncertainty (at {}): some point breaks a \
+             criterion under {:.0} % of {} fresh parameter draws; the plan at the mean under \
+             {:.0} % ({:.0} s of dwell and {} arc stops, this plan {total:.0} s and {stops})",
+            share("confidence"),
+            at.join(", "),
+            share("violation_probability"),
+            summary["confidence_detail"]["check_draws"],
+            share("violation_probability_at_mean"),
+            m.plan.cooling.total_dwell_s(),
+            m.plan.cooling.arc_stops(),
         )
     });
     let dwelled = super::simulate::Dwelled {
