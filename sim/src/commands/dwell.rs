@@ -139,6 +139,36 @@ fn check_both(
     Ok((star, mean))
 }
 
+/// The report's and the recordings' sentence: the design point, both plans' violation
+/// probabilities, and what the confidence cost (this plan's `dwell_s`, arc stops).
+fn how_sure(
+    m: &AtMean,
+    c: &crate::pipeline::confidence::Settings,
+    check: &crate::pipeline::confidence::Check,
+    check_mean: &crate::pipeline::confidence::Check,
+    (dwell_s, stops): (f64, usize),
+) -> String {
+    let at: Vec<String> = m
+        .uncertainty
+        .parameters
+        .iter()
+        .zip(&m.design.x)
+        .map(|(p, x)| format!("{} {x:.4}", p.key()))
+        .collect();
+    format!(
+        "planned at {:.0} % of the calibration's uncertainty (at {}): some point breaks a \
+         criterion under {:.0} % of {} fresh parameter draws; the plan at the mean under {:.0} % \
+         ({:.0} s of dwell and {} arc stops, this plan {dwell_s:.0} s and {stops})",
+        100.0 * c.confidence,
+        at.join(", "),
+        100.0 * check.violation_probability(),
+        check.draws,
+        100.0 * check_mean.violation_probability(),
+        m.plan.cooling.total_dwell_s(),
+        m.plan.cooling.arc_stops(),
+    )
+}
+
 /// dwell.json's `confidence_detail`: the design point, and how well it stands for the quantile.
 fn confidence_json(
     m: &AtMean,
@@ -323,6 +353,8 @@ pub fn plan_and_dwell(
         "single_build_wall_s": before.wall_clock_s,
         "search_cost_in_builds": search_s / before.wall_clock_s.max(1e-9),
     });
+    // How sure the plan is, in one sentence for the report and the recordings.
+    let mut sure = None;
     if let (Some(m), Some(c)) = (&at_mean, &s.confidence) {
         let _stage = Stage::start("the plans under fresh parameter draws");
         summary["confidence"] = json!(c.confidence);
@@ -334,6 +366,7 @@ pub fn plan_and_dwell(
         summary["violation_probability"] = json!(check.violation_probability());
         summary["violation_probability_at_mean"] = json!(check_mean.violation_probability());
         summary["confidence_detail"] = confidence_json(m, c, &check, &check_mean, &after);
+        sure = Some(how_sure(m, c, &check, &check_mean, (total, stops)));
     }
     if let Some((max, r)) = &budget {
         summary["arc_stop_budget"] = json!({
@@ -451,28 +484,6 @@ pub fn plan_and_dwell(
     }
     super::plan::write_plan(dir, s, &b)?;
     write_thermal(dir, &b, &after)?;
-    let sure = at_mean.as_ref().map(|m| {
-        let at: Vec<String> = m
-            .uncertainty
-            .parameters
-            .iter()
-            .zip(&m.design.x)
-            .map(|(p, x)| format!("{} {x:.4}", p.key()))
-            .collect();
-        let share = |k: &str| 100.0 * summary[k].as_f64().unwrap_or(f64::NAN);
-        format!(
-            "planned at {:.0} % of the calibration's uncertainty (at {}): some point breaks a \
-             criterion under {:.0} % of {} fresh parameter draws; the plan at the mean under \
-             {:.0} % ({:.0} s of dwell and {} arc stops, this plan {total:.0} s and {stops})",
-            share("confidence"),
-            at.join(", "),
-            share("violation_probability"),
-            summary["confidence_detail"]["check_draws"],
-            share("violation_probability_at_mean"),
-            m.plan.cooling.total_dwell_s(),
-            m.plan.cooling.arc_stops(),
-        )
-    });
     let dwelled = super::simulate::Dwelled {
         before: &before,
         arc_stops_lower_bound: bound.stops,

@@ -1,8 +1,8 @@
 //! What a real machine did and what a real part measured, read from text: a toolpath as an
 //! event series ([`toolpath`]) or a welding cell's machine log ([`machine_log`]), probe time
-//! series ([`probes`]), property tables ([`table`]) and a planned path as laid ([`path`]). The readers take the text and the
-//! file's name (for messages) and do no IO themselves; each bad line is a one-line error naming
-//! the file, the line, the value and what was expected.
+//! series ([`probes`]), property tables ([`table`]) and a planned path as laid ([`path`]). The
+//! readers take the text and the file's name (for messages) and do no IO themselves; each bad
+//! line is a one-line error naming the file, the line, the value and what was expected.
 
 pub mod gcode;
 pub mod machine_log;

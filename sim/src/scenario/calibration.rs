@@ -330,6 +330,33 @@ pub fn carry(
     })
 }
 
+/// The loaders' line on stderr where a calibration left something out.
+pub fn tell(carried: Option<&Carried>) {
+    if let Some(line) = carried.and_then(|c| c.notice()) {
+        eprintln!("{line}");
+    }
+}
+
+/// `[calibration]` of a scenario (None: no section) read from its folder `base` and carried
+/// into its raw efficiency and thermal section, before they are checked.
+pub fn apply(
+    raw: Option<&RawCalibration>,
+    base: &Path,
+    heat_source: &str,
+    kept: &[String],
+    efficiency: &mut f64,
+    thermal: &mut super::RawThermal,
+) -> Result<Option<Carried>> {
+    let Some(k) = raw else {
+        return Ok(None);
+    };
+    let file = read(&base.join(&k.file))?;
+    carry(file, heat_source, kept, k.hot_side_sd, &mut |p, x| {
+        set_in(efficiency, thermal, p, x)
+    })
+    .map(Some)
+}
+
 /// Which way a parameter moves the heat: +1 where more of it heats the part (the efficiency),
 /// −1 where it cools it (the losses).
 pub fn heating_sign(p: Parameter) -> f64 {

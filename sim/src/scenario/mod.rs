@@ -80,10 +80,7 @@ pub struct Scenario {
 impl Scenario {
     /// Read and check a scenario file; relative mesh paths are resolved against its folder.
     pub fn load(path: &Path) -> Result<Scenario> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
-        let base = path.parent().unwrap_or(Path::new("."));
-        let s = Scenario::parse(&text, &path.display().to_string(), base)?;
+        let s = Scenario::read(path)?;
         if s.planned_path.is_some() {
             return Err(Error::input(format!(
                 "{}: a planned path to replay ([toolpath] format = \"path\"), not a part to \
@@ -91,21 +88,12 @@ impl Scenario {
                 path.display()
             )));
         }
-        if let Some(line) = s.calibration.as_ref().and_then(|c| c.notice()) {
-            eprintln!("{line}");
-        }
         Ok(s)
     }
 
     /// A part's scenario with `[toolpath] format = "path"`: the scenario, and its path.csv.
     pub fn load_planned(path: &Path) -> Result<(Scenario, PathBuf)> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
-        let base = path.parent().unwrap_or(Path::new("."));
-        let s = Scenario::parse(&text, &path.display().to_string(), base)?;
-        if let Some(line) = s.calibration.as_ref().and_then(|c| c.notice()) {
-            eprintln!("{line}");
-        }
+        let s = Scenario::read(path)?;
         match s.planned_path.clone() {
             Some(p) => Ok((s, p)),
             None => Err(Error::input(format!(
@@ -113,6 +101,17 @@ impl Scenario {
                 path.display()
             ))),
         }
+    }
+
+    /// The file read and parsed (paths in it resolved against its folder), and what its
+    /// calibration left out said on stderr.
+    fn read(path: &Path) -> Result<Scenario> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let s = Scenario::parse(&text, &path.display().to_string(), base)?;
+        calibration::tell(s.calibration.as_ref());
+        Ok(s)
     }
 
     /// Whether scenario text is a part's with a planned path to replay (`[toolpath] format =
@@ -150,11 +149,11 @@ impl Scenario {
         lines: bool,
         kept: &[String],
     ) -> Result<Scenario> {
-        if !Scenario::is_planned_path(text)
-            && text
-                .parse::<toml::Table>()
-                .is_ok_and(|t| t.contains_key("toolpath"))
-        {
+        let measured_toolpath = text.parse::<toml::Table>().is_ok_and(|t| {
+            t.get("toolpath")
+                .is_some_and(|p| p.get("format").and_then(|f| f.as_str()) != Some("path"))
+        });
+        if measured_toolpath {
             return Err(Error::input(format!(
                 "{file}: a replay scenario (it has [toolpath]), not a part to plan; run it with \
                  `waamtwin replay`"
@@ -162,20 +161,14 @@ impl Scenario {
         }
         let mut raw: RawScenario =
             toml::from_str(text).map_err(|e| toml_error(&e, text, file, lines))?;
-        let calibration = match raw.calibration.clone() {
-            Some(k) => {
-                let f = calibration::read(&base.join(&k.file))?;
-                let (process, thermal) = (&mut raw.process, &mut raw.thermal);
-                Some(calibration::carry(
-                    f,
-                    "arc",
-                    kept,
-                    k.hot_side_sd,
-                    &mut |p, x| calibration::set_in(&mut process.efficiency, thermal, p, x),
-                )?)
-            }
-            None => None,
-        };
+        let calibration = calibration::apply(
+            raw.calibration.as_ref(),
+            base,
+            "arc",
+            kept,
+            &mut raw.process.efficiency,
+            &mut raw.thermal,
+        )?;
         let c = Checker { text, file, lines };
         Scenario::from_raw(raw, calibration, &c, base)
     }
@@ -561,9 +554,9 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
     })
 }
 
-/// `[dwell]`; the closing zone defaults to three bead widths.
 /// `[dwell] confidence`: the quantile, and the calibration's applied parameters as a normal
-/// distribution (their covariance, else their standard deviations alone).
+/// distribution about the values the scenario runs at (their covariance, else their standard
+/// deviations alone).
 fn confidence(
     d: &RawDwell,
     cal: Option<&calibration::Carried>,
@@ -615,7 +608,7 @@ fn confidence(
         seed: d.check_seed,
         uncertainty: crate::pipeline::confidence::Uncertainty {
             parameters: fits.iter().map(|f| f.parameter).collect(),
-            mean: fits.iter().map(|f| f.value).collect(),
+            mean: cal.applied.iter().map(|a| a.2).collect(),
             covariance,
             bounds: fits
                 .iter()
@@ -628,6 +621,7 @@ fn confidence(
     }))
 }
 
+/// `[dwell]`; the closing zone defaults to three bead widths.
 fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings> {
     c.range(
         "dwell",

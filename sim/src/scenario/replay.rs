@@ -488,30 +488,21 @@ impl ReplayScenario {
             .map_err(|e| Error::input(format!("cannot read scenario {}: {e}", path.display())))?;
         let base = path.parent().unwrap_or(Path::new("."));
         let s = ReplayScenario::parse(&text, &path.display().to_string(), base)?;
-        if let Some(line) = s.calibration.as_ref().and_then(|c| c.notice()) {
-            eprintln!("{line}");
-        }
+        super::calibration::tell(s.calibration.as_ref());
         Ok(s)
     }
 
     pub fn parse(text: &str, file: &str, base: &Path) -> Result<ReplayScenario> {
-        use super::calibration;
         let mut raw: RawReplay =
             toml::from_str(text).map_err(|e| toml_error(&e, text, file, true))?;
-        let calibration = match raw.calibration.clone() {
-            Some(k) => {
-                let f = calibration::read(&base.join(&k.file))?;
-                let (process, thermal) = (&mut raw.process, &mut raw.thermal);
-                Some(calibration::carry(
-                    f,
-                    &process.source.clone(),
-                    &[],
-                    k.hot_side_sd,
-                    &mut |p, x| calibration::set_in(&mut process.efficiency, thermal, p, x),
-                )?)
-            }
-            None => None,
-        };
+        let calibration = super::calibration::apply(
+            raw.calibration.as_ref(),
+            base,
+            &raw.process.source,
+            &[],
+            &mut raw.process.efficiency,
+            &mut raw.thermal,
+        )?;
         let c = Checker {
             text,
             file,
