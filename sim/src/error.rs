@@ -8,6 +8,9 @@ pub enum ErrorKind {
     Input,
     /// Something failed that the input did not cause (disk full, a numerical breakdown). Exit 1.
     Failure,
+    /// The run was asked to stop (`thermal::run::request_stop`: Python's Ctrl-C). Exit 130, as
+    /// a shell reports a command ended by SIGINT.
+    Stopped,
 }
 
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -34,6 +37,7 @@ impl Error {
         match self.kind {
             ErrorKind::Input => 2,
             ErrorKind::Failure => 1,
+            ErrorKind::Stopped => 130,
         }
     }
     /// Prefix the message with where it happened (a file, a command).
@@ -67,6 +71,12 @@ impl From<thermal::ThermalError> for Error {
                 "; expected a plate that holds the part: [thermal] plate_mm larger, or left out \
                  to fit the plate to the part",
             );
+        }
+        if let thermal::ThermalError::Stopped { .. } = e {
+            return Error {
+                kind: ErrorKind::Stopped,
+                message,
+            };
         }
         if e.is_input() {
             Error::input(message)

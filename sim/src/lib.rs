@@ -20,57 +20,50 @@ pub mod scenario;
 use cli::Command;
 pub use error::{Error, Result};
 
-/// Run one command; `main` only maps the result to an exit code.
+/// Run one command and print what it says; `main` only maps the result to an exit code.
 pub fn run(cli: cli::Cli) -> Result<()> {
+    println!("{}", execute(cli)?);
+    Ok(())
+}
+
+/// Run one command and return what it says (the line `waamtwin` prints; `inspect`'s report):
+/// the command line prints it, the Python package returns it.
+pub fn execute(cli: cli::Cli) -> Result<String> {
     match cli.command {
         Command::Inspect { mesh, json } => {
             let r = commands::inspect::inspect(&mesh)?;
-            if json {
-                println!("{}", serde_json::to_string_pretty(&r).unwrap_or_default());
-            } else {
-                print!("{}", commands::inspect::format_report(&r));
-            }
-            Ok(())
+            Ok(match json {
+                true => serde_json::to_string_pretty(&r).unwrap_or_default(),
+                false => commands::inspect::format_report(&r).trim_end().to_string(),
+            })
         }
         Command::Geodesic { mesh, from, out } => {
             let n = commands::geodesic::geodesic(&mesh, &from, &out)?;
-            println!("{}: distance at {n} vertices", out.display());
-            Ok(())
+            Ok(format!("{}: distance at {n} vertices", out.display()))
         }
         Command::Plan {
             scenario,
             out,
             strategy,
-        } => {
-            let line = commands::plan::run(&scenario, &out, strategy)?;
-            println!("{line}");
-            Ok(())
-        }
+        } => commands::plan::run(&scenario, &out, strategy),
         Command::Simulate {
             scenario,
             out,
             checkpoints,
-        } => {
-            println!("{}", commands::simulate::run(&scenario, &out, checkpoints)?);
-            Ok(())
-        }
+        } => commands::simulate::run(&scenario, &out, checkpoints),
         Command::Follow {
             scenario,
             out,
             until_idle_s,
             connect,
             checkpoints,
-        } => {
-            let line = commands::follow::run(
-                &scenario,
-                &out,
-                until_idle_s,
-                connect.as_deref(),
-                checkpoints,
-            )?;
-            println!("{line}");
-            Ok(())
-        }
+        } => commands::follow::run(
+            &scenario,
+            &out,
+            until_idle_s,
+            connect.as_deref(),
+            checkpoints,
+        ),
         Command::Calibrate {
             scenario,
             out,
@@ -82,20 +75,13 @@ pub fn run(cli: cli::Cli) -> Result<()> {
                 w.map(|w| commands::calibrate::window(&w, flag)).transpose()
             };
             let (fit, holdout) = (window(fit, "--fit")?, window(holdout, "--holdout")?);
-            println!(
-                "{}",
-                commands::calibrate::run(&scenario, &out, fit, holdout, checkpoints)?
-            );
-            Ok(())
+            commands::calibrate::run(&scenario, &out, fit, holdout, checkpoints)
         }
         Command::Replay {
             scenario,
             out,
             checkpoints,
-        } => {
-            println!("{}", commands::replay::run(&scenario, &out, checkpoints)?);
-            Ok(())
-        }
+        } => commands::replay::run(&scenario, &out, checkpoints),
         Command::Dwell {
             scenario,
             out,
@@ -107,11 +93,7 @@ pub fn run(cli: cli::Cli) -> Result<()> {
                 baselines: !no_baselines,
                 pareto,
             };
-            println!(
-                "{}",
-                commands::dwell::run(&scenario, &out, extras, checkpoints)?
-            );
-            Ok(())
+            commands::dwell::run(&scenario, &out, extras, checkpoints)
         }
         Command::Study {
             study,
@@ -124,11 +106,7 @@ pub fn run(cli: cli::Cli) -> Result<()> {
                 .as_deref()
                 .map(commands::study::parse_shard)
                 .transpose()?;
-            println!(
-                "{}",
-                commands::study::run(&study, &out, shard, emit.as_deref(), jobs)?
-            );
-            Ok(())
+            commands::study::run(&study, &out, shard, emit.as_deref(), jobs)
         }
         Command::Mesh { scenario, out } => {
             let s = scenario::Scenario::load(&scenario)?;
@@ -141,14 +119,13 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             })?;
             let bytes = planner::io::write_mesh(&p.mesh, format, planner::io::Encoding::Binary);
             output::write_atomic(&out, &bytes)?;
-            println!(
+            Ok(format!(
                 "{}: {} vertices, {} faces, {} part",
                 name,
                 p.mesh.n_vertices(),
                 p.mesh.n_faces(),
                 p.kind.as_str()
-            );
-            Ok(())
+            ))
         }
         Command::Export {
             dir,
@@ -158,17 +135,12 @@ pub fn run(cli: cli::Cli) -> Result<()> {
             tilt_limits_deg,
         } => {
             let table = commands::export::table(&pivot_mm, &part_offset_mm, &tilt_limits_deg)?;
-            println!("{}", commands::export::run(&dir, format, &table)?);
-            Ok(())
+            commands::export::run(&dir, format, &table)
         }
-        Command::Skeleton { scenario, out } => {
-            println!("{}", commands::skeleton::run(&scenario, &out)?);
-            Ok(())
-        }
+        Command::Skeleton { scenario, out } => commands::skeleton::run(&scenario, &out),
         Command::Demo { out } => {
             commands::demo::demo(&out)?;
-            println!("demo written to {}", out.display());
-            Ok(())
+            Ok(format!("demo written to {}", out.display()))
         }
     }
 }

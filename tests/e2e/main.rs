@@ -12,6 +12,7 @@ mod follow;
 mod follow_opcua;
 mod inspect;
 mod outputs;
+mod python;
 mod replay;
 mod resume;
 mod scenarios;

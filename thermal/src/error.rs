@@ -23,13 +23,19 @@ pub enum ThermalError {
         what: &'static str,
         value: f64,
     },
+    /// The caller asked every run to stop ([`crate::run::request_stop`]): not a failure of the
+    /// model, and not the input's.
+    Stopped { time_s: f64 },
 }
 
 impl ThermalError {
     /// Whether the caller's input caused it (a schedule or plate the model cannot take), as
     /// opposed to a failure of the model.
     pub fn is_input(&self) -> bool {
-        !matches!(self, ThermalError::NonFinite { .. })
+        !matches!(
+            self,
+            ThermalError::NonFinite { .. } | ThermalError::Stopped { .. }
+        )
     }
 }
 
@@ -56,6 +62,9 @@ impl fmt::Display for ThermalError {
                 "numerical failure at t = {time_s:.3} s, ({:.1}, {:.1}, {:.1}) mm: {what} = {value}",
                 p[0], p[1], p[2]
             ),
+            ThermalError::Stopped { time_s } => {
+                write!(f, "stopped on request at t = {time_s:.3} s")
+            }
         }
     }
 }

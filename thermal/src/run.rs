@@ -13,6 +13,31 @@ use crate::network::Ledger;
 use crate::schedule::{Deposit, DropPart, strike_readings};
 use crate::voxel::{VoxelModel, VoxelRun, VoxelSettings};
 use crate::wall::{WallModel, WallRun, WallSettings};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set by [`request_stop`]: every [`ModelRun`] in the process then ends at its next deposit or
+/// cooling with [`ThermalError::Stopped`]. The command line stops on Ctrl-C by dying; a caller
+/// that cannot kill the thread it runs on (Python's Ctrl-C, which arrives as a flag the
+/// interpreter polls) asks through this instead.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Ask every heat run in this process to stop at its next step ([`ThermalError::Stopped`]).
+pub fn request_stop() {
+    STOP.store(true, Ordering::SeqCst);
+}
+
+/// Let heat runs go on again (before a new run, once a stopped one has returned).
+pub fn clear_stop() {
+    STOP.store(false, Ordering::SeqCst);
+}
+
+/// [`ThermalError::Stopped`] at `time_s` if a stop was asked for.
+fn unless_stopped(time_s: f64) -> Result<(), ThermalError> {
+    match STOP.load(Ordering::Relaxed) {
+        true => Err(ThermalError::Stopped { time_s }),
+        false => Ok(()),
+    }
+}
 
 /// The substrate plate: a box under the part, its top face at z = 0.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -473,9 +498,11 @@ impl HeatRun for ModelRun {
         dwell: f64,
         burn: Option<Burn>,
     ) -> Result<(), ThermalError> {
+        unless_stopped(self.now())?;
         either!(self, r => r.deposit_burning(i, dwell, burn))
     }
     fn cool(&mut self, duration: f64) -> Result<(), ThermalError> {
+        unless_stopped(self.now())?;
         either!(self, r => r.cool(duration))
     }
     fn quench(&mut self) {

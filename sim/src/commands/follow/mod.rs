@@ -198,6 +198,25 @@ fn in_celsius(values: &mut [Option<f64>], kelvin: bool, ambient_k: f64, c: &mut 
     }
 }
 
+/// Set by Ctrl-C ([`catch_ctrl_c`]) or by [`interrupt`]: the run ends at its next look, as
+/// it ends when the data stop, with every output written.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// End the run that follows now at its next look (the Python package's Ctrl-C).
+pub fn interrupt() {
+    INTERRUPTED.store(true, Ordering::SeqCst);
+}
+
+/// Make Ctrl-C end `follow` gracefully. The command line calls it before `follow`; a library
+/// caller does not, so that its own Ctrl-C handling (Python's) stays its own. One handler for
+/// the process (a second would be refused); without it Ctrl-C ends the process at once.
+pub fn catch_ctrl_c() {
+    static HANDLER: std::sync::Once = std::sync::Once::new();
+    HANDLER.call_once(|| {
+        let _ = ctrlc::set_handler(interrupt);
+    });
+}
+
 pub fn run(
     scenario: &Path,
     out: &Path,
@@ -261,13 +280,6 @@ pub fn run(
         (&live.twin.horizons_s, interpass_c),
         connect,
     )?;
-    // One handler for the process (a second would be refused), one flag every run reads.
-    static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-    static HANDLER: std::sync::Once = std::sync::Once::new();
-    HANDLER.call_once(|| {
-        // Without a handler Ctrl-C ends the process at once, as it always did: no files.
-        let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
-    });
     INTERRUPTED.store(false, Ordering::SeqCst);
     let longest = live.twin.horizons_s.iter().copied().fold(0.0, f64::max);
     let clock = Instant::now();

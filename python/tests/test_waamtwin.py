@@ -1,0 +1,123 @@
+"""The Python package against the command it wraps. Run from the repository root with the
+package installed and WAAMTWIN_BIN naming the `waamtwin` binary of the same build (the e2e
+test `python::the_package_passes_its_tests` does both)."""
+
+import json
+import os
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+import unittest
+from pathlib import Path
+
+import numpy as np
+
+import waamtwin
+
+BIN = os.environ.get("WAAMTWIN_BIN", "waamtwin")
+DOME = "scenarios/demo_dome.toml"
+# A small closed part on the thin wall: a few seconds a run.
+SMALL = {
+    "part": {"shape": "cylinder", "radius_mm": 25.0, "height_mm": 30.0},
+    "output": {"frames": 0, "rerun": False, "mcap": False, "hdf5": False, "plots": False},
+}
+
+
+def command(*args):
+    return subprocess.run([BIN, *args], capture_output=True, text=True)
+
+
+class SamePlan(unittest.TestCase):
+    def test_the_plan_from_python_is_the_commands_to_the_byte(self):
+        with tempfile.TemporaryDirectory() as d:
+            done = command("plan", DOME, "-o", d)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            r = waamtwin.plan(DOME)
+            self.assertEqual(r.path_of("path.csv").read_bytes(), Path(d, "path.csv").read_bytes())
+            self.assertEqual(r.summary, done.stdout.strip())
+            # Its tables are the CSV's columns as numbers.
+            self.assertEqual(r.path["x"].dtype, np.float64)
+            self.assertEqual(len(r.path["x"]), len(Path(d, "path.csv").read_text().splitlines()) - 1)
+            # write() gives the command's files, by name and by content (manifest.json carries
+            # the run's own times and folder, so it is compared by its keys).
+            w = Path(d, "py")
+            r.write(w)
+            theirs = sorted(p.name for p in Path(d).iterdir() if p.is_file())
+            self.assertEqual(sorted(p.name for p in w.iterdir()), theirs)
+            for name in theirs:
+                if name not in ("manifest.json",):
+                    self.assertEqual(Path(w, name).read_bytes(), Path(d, name).read_bytes(), name)
+
+    def test_a_dict_scenario_with_overrides_runs_as_its_toml(self):
+        with tempfile.TemporaryDirectory() as d:
+            toml = Path(d, "small.toml")
+            toml.write_text(
+                '[part]\nshape = "cylinder"\nradius_mm = 25.0\nheight_mm = 30.0\n'
+                "[output]\nframes = 0\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n"
+                "[thermal]\nmodel = \"fe\"\n"
+            )
+            done = command("simulate", str(toml), "-o", str(Path(d, "cmd")))
+            self.assertEqual(done.returncode, 0, done.stderr)
+            r = waamtwin.simulate(SMALL, thermal={"model": "fe"})
+            self.assertEqual(
+                r.path_of("layers.csv").read_bytes(), Path(d, "cmd", "layers.csv").read_bytes()
+            )
+            theirs = json.loads(Path(d, "cmd", "thermal.json").read_text())
+            self.assertEqual(r.thermal["max_preheat_c"], theirs["max_preheat_c"])
+            self.assertTrue(np.all(np.isfinite(r.layers["preheat_max_c"])))
+
+
+class Errors(unittest.TestCase):
+    def test_bad_input_is_an_input_error_naming_the_field(self):
+        with self.assertRaises(waamtwin.InputError) as e:
+            waamtwin.plan(DOME, dwell={"confidence": 3})
+        self.assertIn("dwell.confidence", str(e.exception))
+        self.assertIn(DOME, str(e.exception))
+        self.assertNotIn(".waamtwin-", str(e.exception))
+        self.assertIsInstance(e.exception, ValueError)
+        with self.assertRaises(waamtwin.InputError):
+            waamtwin.plan("no/such/scenario.toml")
+        with self.assertRaises(TypeError):
+            waamtwin.plan(DOME, no_such_option=1)
+        self.assertTrue(issubclass(waamtwin.SimulationError, RuntimeError))
+
+
+class LongRuns(unittest.TestCase):
+    def test_other_threads_run_while_it_works_and_progress_is_told(self):
+        ticks, stop = [0], threading.Event()
+
+        def count():
+            while not stop.is_set():
+                ticks[0] += 1
+                time.sleep(0.005)
+
+        t = threading.Thread(target=count)
+        told = []
+        t.start()
+        start = time.monotonic()
+        waamtwin.simulate(DOME, output={"frames": 0}, progress=lambda s, d, n: told.append((s, d, n)))
+        wall = time.monotonic() - start
+        stop.set()
+        t.join()
+        # Held GIL: the counter would not move at all while the engine ran.
+        self.assertGreater(ticks[0], 0.5 * wall / 0.005 * 0.5, (ticks[0], wall))
+        heating = [d for s, d, n in told if s == "heating the build"]
+        self.assertGreater(len(heating), 3)
+        self.assertEqual(heating, sorted(heating))
+
+    def test_ctrl_c_stops_the_run(self):
+        timer = threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT))
+        start = time.monotonic()
+        timer.start()
+        with self.assertRaises(KeyboardInterrupt):
+            waamtwin.simulate(DOME, output={"frames": 0})
+        # The run takes ~8 s; stopped within a deposit of the signal.
+        self.assertLess(time.monotonic() - start, 3.0)
+        # And the next run runs.
+        self.assertIn("build", waamtwin.simulate(SMALL).summary)
+
+
+if __name__ == "__main__":
+    unittest.main()
