@@ -108,8 +108,8 @@ fn run(py: Python<'_>, argv: Vec<String>, progress: Option<Py<PyAny>>) -> PyResu
 /// A scenario given as JSON (the Python dict of its sections), as TOML text.
 #[pyfunction]
 fn toml_from_json(json: &str) -> PyResult<String> {
-    let value: toml::Value = serde_json::from_str(json)
-        .map_err(|e| InputError::new_err(format!("scenario: {e}")))?;
+    let value: toml::Value =
+        serde_json::from_str(json).map_err(|e| InputError::new_err(format!("scenario: {e}")))?;
     toml::to_string(&value).map_err(|e| InputError::new_err(format!("scenario: {e}")))
 }
 

@@ -56,11 +56,11 @@ class SamePlan(unittest.TestCase):
             toml.write_text(
                 '[part]\nshape = "cylinder"\nradius_mm = 25.0\nheight_mm = 30.0\n'
                 "[output]\nframes = 0\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n"
-                "[thermal]\nmodel = \"fe\"\n"
+                "[thermal]\nmodel = \"thin-wall\"\n"
             )
             done = command("simulate", str(toml), "-o", str(Path(d, "cmd")))
             self.assertEqual(done.returncode, 0, done.stderr)
-            r = waamtwin.simulate(SMALL, thermal={"model": "fe"})
+            r = waamtwin.simulate(SMALL, thermal={"model": "thin-wall"})
             self.assertEqual(
                 r.path_of("layers.csv").read_bytes(), Path(d, "cmd", "layers.csv").read_bytes()
             )

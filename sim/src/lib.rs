@@ -108,25 +108,7 @@ pub fn execute(cli: cli::Cli) -> Result<String> {
                 .transpose()?;
             commands::study::run(&study, &out, shard, emit.as_deref(), jobs)
         }
-        Command::Mesh { scenario, out } => {
-            let s = scenario::Scenario::load(&scenario)?;
-            let p = part::load_part(&s.part)?;
-            let name = out.display().to_string();
-            let format = planner::io::MeshFormat::from_extension(&name).ok_or_else(|| {
-                Error::input(format!(
-                    "{name}: unknown mesh extension; expected .stl, .obj or .ply"
-                ))
-            })?;
-            let bytes = planner::io::write_mesh(&p.mesh, format, planner::io::Encoding::Binary);
-            output::write_atomic(&out, &bytes)?;
-            Ok(format!(
-                "{}: {} vertices, {} faces, {} part",
-                name,
-                p.mesh.n_vertices(),
-                p.mesh.n_faces(),
-                p.kind.as_str()
-            ))
-        }
+        Command::Mesh { scenario, out } => commands::mesh::run(&scenario, &out),
         Command::Export {
             dir,
             format,
@@ -142,5 +124,44 @@ pub fn execute(cli: cli::Cli) -> Result<String> {
             commands::demo::demo(&out)?;
             Ok(format!("demo written to {}", out.display()))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::{Path, PathBuf};
+
+    fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            match p.is_dir() {
+                true => sources(&p, out),
+                false if p.extension().is_some_and(|x| x == "rs") => out.push(p),
+                false => {}
+            }
+        }
+    }
+
+    /// docs/ARCHITECTURE.md: the commands are the shell. The engine, the readers and the sinks
+    /// never name them; only `commands/`, `cli.rs` and `lib.rs` do.
+    #[test]
+    fn the_engine_does_not_reach_into_the_commands() {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let mut files = Vec::new();
+        sources(&src, &mut files);
+        let names = |p: &Path| {
+            let text = std::fs::read_to_string(p).unwrap();
+            text.contains("crate::commands") || text.contains("super::commands")
+        };
+        let shell = |rel: &Path| {
+            rel.starts_with("commands") || rel == Path::new("cli.rs") || rel == Path::new("lib.rs")
+        };
+        let offenders: Vec<_> = files
+            .iter()
+            .filter(|p| !shell(p.strip_prefix(&src).unwrap()) && names(p))
+            .collect();
+        assert!(offenders.is_empty(), "outside the shell: {offenders:?}");
+        // The look finds what it looks for: cli.rs names the commands' options.
+        assert!(names(&src.join("cli.rs")) && files.len() > 50);
     }
 }

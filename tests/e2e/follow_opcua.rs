@@ -3,7 +3,7 @@
 //! the same rows read from the file. Opt-in (`crate::SYSTEM_TESTS`): the server comes from
 //! PyPI into target/readers-venv.
 
-use crate::follow::{finish, follow, scenario_with, validation_file};
+use crate::follow::{finish, follow, scenario_with};
 use crate::{readers, root, scratch};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -45,8 +45,8 @@ fn free_port() -> u16 {
 
 /// The first `ROWS` rows of the ORNL log, and two scenarios on them: read from the file, and
 /// from an OPC UA server on `port`.
-fn scenarios(dir: &Path, port: u16) -> Option<(PathBuf, PathBuf, PathBuf)> {
-    let log = validation_file("ornl_srp_waam_calibration/srp4_calibration_log.csv")?;
+fn scenarios(dir: &Path, port: u16) -> (PathBuf, PathBuf, PathBuf) {
+    let log = crate::data().join("ornl_srp_waam_calibration/srp4_calibration_log.csv");
     let text = std::fs::read_to_string(log).unwrap();
     let head: String = text
         .lines()
@@ -69,7 +69,7 @@ fn scenarios(dir: &Path, port: u16) -> Option<(PathBuf, PathBuf, PathBuf)> {
     );
     let text = std::fs::read_to_string(&file).unwrap() + &opcua;
     std::fs::write(&served, text).unwrap();
-    Some((probes, file, served))
+    (probes, file, served)
 }
 
 /// Start the server on `port` serving `log`'s rows from `from` (and dying after `exit_after`).
@@ -124,15 +124,18 @@ fn follow_json(out: &Path) -> serde_json::Value {
 /// the file run's forecasts. The machine's state comes over the wire too, and wins over the
 /// program as the file's does.
 #[test]
+#[cfg_attr(
+    not(system_tests),
+    ignore = "opt-in, WAAMTWIN_SYSTEM_TESTS=1: asyncua from PyPI"
+)]
+#[cfg_attr(
+    not(validation_data),
+    ignore = "needs the measured builds: WAAMTWIN_DATA, or ../shared/validation-data"
+)]
 fn the_ornl_log_over_opcua_forecasts_as_the_file_does_through_a_server_restart() {
-    if !crate::system_tests("the OPC UA follow (asyncua from PyPI into target/readers-venv)") {
-        return;
-    }
     let dir = scratch("follow_opcua");
     let port = free_port();
-    let Some((log, file, opcua)) = scenarios(&dir, port) else {
-        return;
-    };
+    let (log, file, opcua) = scenarios(&dir, port);
     let _ = readers();
     let limit = Duration::from_secs(300);
     let (ok, text) = finish(

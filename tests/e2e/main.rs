@@ -39,19 +39,19 @@ pub fn waamtwin(args: &[&str]) -> Output {
         .expect("run waamtwin")
 }
 
-/// The tests that bring up outside programs (the reference readers, installed from PyPI into
-/// `target/readers-venv`; a real single-node Slurm, installed as root from the distribution's
-/// packages) run only where this variable is 1. `.ci/run` sets it; a plain `cargo test` touches
-/// nothing outside the checkout and `target/`.
+/// The tests that bring up outside programs (the reference readers and the Python package from
+/// PyPI, a real single-node Slurm and Chromium installed as root, an OPC UA server, rerun) are
+/// compiled as ignored, with their reason, unless this variable was 1 when they were built
+/// (`sim/build.rs` sets the `system_tests` cfg). `.ci/run` sets it; a plain `cargo test` touches
+/// nothing outside the checkout and `target/`, and lists them as ignored.
 pub const SYSTEM_TESTS: &str = "WAAMTWIN_SYSTEM_TESTS";
 
-/// Whether the opt-in tests run here; says so when they do not.
-pub fn system_tests(what: &str) -> bool {
-    if std::env::var(SYSTEM_TESTS).as_deref() == Ok("1") {
-        return true;
-    }
-    eprintln!("skipped: {what} (set {SYSTEM_TESTS}=1 to run it)");
-    false
+/// The measured builds (the ORNL pad, the GAMMA wall): the folder `sim/build.rs` found when
+/// the tests were built, `WAAMTWIN_DATA` or `../shared/validation-data` beside the checkout.
+/// The tests that read it are ignored, with that reason, where it was absent
+/// (`validation_data` cfg); where it was there, a file missing from it fails them.
+pub fn data() -> PathBuf {
+    PathBuf::from(env!("WAAMTWIN_TEST_DATA"))
 }
 
 /// A virtual environment with the pinned readers, made once per target directory.

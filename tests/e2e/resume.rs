@@ -61,7 +61,7 @@ fn a_killed_simulate_resumes_to_the_same_files() {
 fn a_killed_dwell_resumes_to_the_same_files() {
     let dir = scratch("resume-dwell");
     let s = dir.join("s.toml");
-    std::fs::write(&s, DOME.replace("\"voxel\"", "\"fe\"")).unwrap();
+    std::fs::write(&s, DOME.replace("\"voxel\"", "\"thin-wall\"")).unwrap();
     let args = ["dwell", s.to_str().unwrap()];
     // Killed inside the dwell search (kept between revolutions), and inside the baselines
     // (each kept as it finishes): both stages after one done and kept.
@@ -78,7 +78,7 @@ fn a_killed_dwell_resumes_to_the_same_files() {
 fn a_checkpoint_not_the_runs_own_is_refused() {
     let dir = scratch("resume-refused");
     let s = dir.join("s.toml");
-    let fe = DOME.replace("\"voxel\"", "\"fe\"");
+    let fe = DOME.replace("\"voxel\"", "\"thin-wall\"");
     std::fs::write(&s, &fe).unwrap();
     let out = dir.join("out");
     let args = ["simulate", s.to_str().unwrap(), "--resume"];

@@ -128,7 +128,7 @@ fn voxel_model_through_the_command_agrees_with_the_thin_wall() {
     );
     assert_eq!(
         (fe["model"].as_str(), vx["model"].as_str()),
-        (Some("fe"), Some("voxel"))
+        (Some("thin-wall"), Some("voxel"))
     );
     assert_eq!(fe_layers.len(), vx_layers.len());
     assert!(vx["energy_balance_error"].as_f64().unwrap().abs() < 0.01);

@@ -392,7 +392,7 @@ impl HeatModel {
 
     pub fn name(&self) -> &'static str {
         match self {
-            HeatModel::ThinWall(_) => "fe",
+            HeatModel::ThinWall(_) => "thin-wall",
             HeatModel::Voxel(_) => "voxel",
         }
     }

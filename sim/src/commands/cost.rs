@@ -98,7 +98,7 @@ fn refusal(file: &str, t: &ThermalSettings, e: &Estimate, avail: f64) -> Error {
                 (dx * 100.0).ceil() / 100.0
             ))
         }
-        ThermalModel::Fe => Error::input(format!(
+        ThermalModel::ThinWall => Error::input(format!(
             "{file}: the thin-wall model asks for {:.3e} nodes, about {}, and this machine has {} available; expected a run that fits: a larger thermal.node_mm, or fewer output.frames",
             e.cells,
             bytes(e.bytes),

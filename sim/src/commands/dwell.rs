@@ -522,11 +522,7 @@ pub fn plan_and_dwell(
         after.build_time_s(),
         risky_after.len(),
         search_s / before.wall_clock_s.max(1e-9),
-        if after.model == "voxel" {
-            "voxel"
-        } else {
-            "thin-wall"
-        }
+        after.model
     ))
 }
 

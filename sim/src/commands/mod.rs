@@ -9,6 +9,7 @@ pub mod export;
 pub mod follow;
 pub mod geodesic;
 pub mod inspect;
+pub mod mesh;
 pub mod plan;
 pub mod replay;
 pub mod replay_plan;

@@ -51,7 +51,7 @@ impl Estimate {
     pub fn line(&self) -> String {
         let what = match self.model {
             ThermalModel::Voxel => "voxels",
-            ThermalModel::Fe => "thin-wall nodes",
+            ThermalModel::ThinWall => "thin-wall nodes",
         };
         format!(
             "estimate: {:.3e} {what} ({:.3e} of them the plate), {:.3e} steps, {}, about {}",
@@ -107,7 +107,7 @@ pub fn estimate(
                     / speedup(threads),
             }
         }
-        ThermalModel::Fe => {
+        ThermalModel::ThinWall => {
             // Nodes group deposits at least `node_m` long (never fewer than one a deposit
             // shorter); the plate is a grid of cells a few layers deep.
             let path: f64 = (0..deposits.len()).map(|i| segment(deposits, i)).sum();

@@ -196,7 +196,7 @@ pub fn heat_model_of(
         material: None,
     };
     match t.model {
-        ThermalModel::Fe => HeatModel::ThinWall(WallSettings {
+        ThermalModel::ThinWall => HeatModel::ThinWall(WallSettings {
             material,
             surroundings,
             plate,

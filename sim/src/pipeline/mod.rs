@@ -69,8 +69,9 @@ use thermal::{HeatModel, HeatRun, ModelRun, RunResult, ThermalError};
 /// build or fails on it.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Error {
-    /// The planner's verdict on the part (branching, too short, …): the user's input.
-    Plan(String),
+    /// The planner's verdict on the part (branching, too short, …): the user's input, with
+    /// its evidence (which generator, which branch) for a caller to act on.
+    Plan(planner::plan::PlanError),
     Thermal(ThermalError),
     /// Measurements that cannot serve as asked (no reading in a fit window, no metal laid):
     /// the user's input.
@@ -100,7 +101,7 @@ impl From<ThermalError> for Error {
 
 /// Plan a part with CTPP.
 pub fn plan(part: &Part, params: &PlanParams) -> Result<Plan, Error> {
-    planner::plan::plan(part, params).map_err(|e| Error::Plan(e.to_string()))
+    planner::plan::plan(part, params).map_err(Error::Plan)
 }
 
 /// A planned build with its beads and schedule, ready to be heated, judged and given dwells.
@@ -125,7 +126,7 @@ pub struct Simulation {
     pub pace: Vec<f64>,
     pub drop: Vec<Option<thermal::schedule::DropPart>>,
     pub result: RunResult,
-    /// "fe" or "voxel".
+    /// "thin-wall" or "voxel".
     pub model: &'static str,
     /// Wall-clock time of the heat model, s.
     pub wall_clock_s: f64,

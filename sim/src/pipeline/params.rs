@@ -70,7 +70,8 @@ impl Material {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ThermalModel {
-    Fe,
+    /// The thin wall (`thermal::wall`): `model = "thin-wall"`.
+    ThinWall,
     Voxel,
 }
 

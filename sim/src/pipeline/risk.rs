@@ -215,7 +215,7 @@ mod tests {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         let path = root.join("scenarios/leaning_elliptic_dome.toml");
         let text = std::fs::read_to_string(&path).unwrap();
-        for model in ["fe", "voxel"] {
+        for model in ["thin-wall", "voxel"] {
             let text = format!("{text}[thermal]\nmodel = \"{model}\"\n");
             let s = Scenario::parse(&text, "leaning", &root).unwrap();
             let part = crate::part::load_part(&s.part).unwrap();

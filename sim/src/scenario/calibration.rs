@@ -350,7 +350,7 @@ pub fn apply(
     let Some(k) = raw else {
         return Ok(None);
     };
-    let file = read(&base.join(&k.file))?;
+    let file = read(&super::resolve(base, &k.file))?;
     carry(file, heat_source, kept, k.hot_side_sd, &mut |p, x| {
         set_in(efficiency, thermal, p, x)
     })

@@ -192,7 +192,7 @@ impl Scenario {
             output: raw.output.clone(),
             skeleton: skeleton(&raw.skeleton, c)?,
             confidence: confidence(&raw.dwell, calibration.as_ref(), c)?,
-            planned_path: raw.toolpath.as_ref().map(|t| base.join(&t.file)),
+            planned_path: raw.toolpath.as_ref().map(|t| resolve(base, &t.file)),
             calibration,
             raw,
         })
@@ -380,17 +380,53 @@ fn process(p: &RawProcess, c: &Checker) -> Result<Process> {
     })
 }
 
+/// The variable that names the folder of the measured builds.
+pub const DATA_VAR: &str = "WAAMTWIN_DATA";
+
+/// Where a scenario's `$WAAMTWIN_DATA/…` paths lead: the folder [`DATA_VAR`] names; else
+/// `../shared/validation-data` from the working directory (a checkout's root, the shared data
+/// beside it), where that exists; else the first `shared/validation-data` beside the scenario's
+/// folder or one of its parents (a scenario inside a checkout, run from anywhere); else the
+/// first, which a missing file's message then names.
+pub fn data_dir(base: &Path) -> PathBuf {
+    if let Some(d) = std::env::var_os(DATA_VAR) {
+        return PathBuf::from(d);
+    }
+    let beside_cwd = PathBuf::from("../shared/validation-data");
+    if beside_cwd.is_dir() {
+        return beside_cwd;
+    }
+    let absolute = std::path::absolute(base).unwrap_or_else(|_| base.to_path_buf());
+    absolute
+        .ancestors()
+        .map(|a| a.join("shared/validation-data"))
+        .find(|d| d.is_dir())
+        .unwrap_or(beside_cwd)
+}
+
+/// A file a scenario names: `$WAAMTWIN_DATA/…` under [`data_dir`], an absolute path as it is,
+/// anything else beside the scenario file (`base`).
+pub fn resolve(base: &Path, file: impl AsRef<Path>) -> PathBuf {
+    let file = file.as_ref();
+    match file.strip_prefix(format!("${DATA_VAR}")) {
+        Ok(rest) => data_dir(base).join(rest),
+        Err(_) => base.join(file),
+    }
+}
+
 /// `[thermal]`; the footprint defaults to the bead width.
 fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSettings> {
     let model = match t.model.as_str() {
-        "fe" => ThermalModel::Fe,
+        // "fe", the first contract's name (shared/interface.md keeps its names stable), is
+        // read as the thin wall too; every output says "thin-wall".
+        "thin-wall" | "fe" => ThermalModel::ThinWall,
         "voxel" => ThermalModel::Voxel,
         other => {
             return Err(c.fail(
                 "thermal",
                 "model",
                 format!("\"{other}\""),
-                "\"fe\" or \"voxel\"",
+                "\"thin-wall\" or \"voxel\"",
             ));
         }
     };
@@ -431,12 +467,12 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
                 "a disc's diameter twice: [d, d, thickness]",
             ));
         }
-        ("disc", ThermalModel::Fe) => {
+        ("disc", ThermalModel::ThinWall) => {
             return Err(c.fail(
                 "thermal",
                 "plate_shape",
                 "\"disc\"",
-                "\"box\" with model = \"fe\" (the thin wall's plate is a grid of cells)",
+                "\"box\" with model = \"thin-wall\" (the thin wall's plate is a grid of cells)",
             ));
         }
         (other, _) => {
@@ -994,7 +1030,7 @@ fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {
             )));
         }
         (Some(mesh), None) => {
-            let path = base.join(mesh);
+            let path = resolve(base, mesh);
             if !path.is_file() {
                 return Err(c.fail(
                     "part",

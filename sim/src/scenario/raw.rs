@@ -293,7 +293,7 @@ pub struct RawThermal {
 impl Default for RawThermal {
     fn default() -> Self {
         Self {
-            model: "fe".into(),
+            model: "thin-wall".into(),
             ambient_c: 20.0,
             convection_w_m2k: 15.0,
             emissivity: 0.6,

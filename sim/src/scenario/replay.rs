@@ -546,7 +546,7 @@ impl ReplayScenario {
         };
         let thermal = super::thermal(&raw.thermal, p.bead_width_mm, &c)?;
         Ok(ReplayScenario {
-            toolpath: base.join(&raw.toolpath.file),
+            toolpath: super::resolve(base, &raw.toolpath.file),
             format,
             z_offset_mm: raw.toolpath.z_offset_mm,
             time_offset_s: raw.toolpath.time_offset_s,
@@ -721,9 +721,9 @@ fn tables(m: &RawTables, section: &str, c: &Checker, base: &Path) -> Result<Mate
     Ok(MaterialSpec::Tables(Tables {
         name: m.name.clone(),
         density_kg_m3: m.density_kg_m3,
-        specific_heat: base.join(&m.specific_heat_table),
+        specific_heat: super::resolve(base, &m.specific_heat_table),
         specific_heat_scale: cp,
-        conductivity: base.join(&m.conductivity_table),
+        conductivity: super::resolve(base, &m.conductivity_table),
         conductivity_scale: k,
         solidus_k: m.solidus_c + KELVIN,
         liquidus_k: m.liquidus_c + KELVIN,
@@ -776,7 +776,7 @@ fn probes(p: &RawProbes, c: &Checker, base: &Path) -> Result<Probes> {
         });
     }
     Ok(Probes {
-        file: base.join(&p.file),
+        file: super::resolve(base, &p.file),
         kelvin,
         time_column: p.time_column,
         points,
@@ -887,7 +887,7 @@ fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Re
         },
         stall_s: l.stall_s,
         voxel_m: l.voxel_mm.map(|v| v * 1e-3),
-        prior: l.prior.as_ref().map(|p| base.join(p)),
+        prior: l.prior.as_ref().map(|p| super::resolve(base, p)),
         opcua: l.opcua.as_ref().map(|o| opcua(o, probes, c)).transpose()?,
         machine_log: l
             .machine_log
@@ -1164,7 +1164,7 @@ mod tests {
         let s = ReplayScenario::parse(&steel, "r.toml", Path::new(".")).unwrap();
         assert_eq!(s.plate_material, Some(super::MaterialSpec::G3Si));
         let e = ReplayScenario::parse(
-            &steel.replace("model = \"voxel\"", "model = \"fe\""),
+            &steel.replace("model = \"voxel\"", "model = \"thin-wall\""),
             "r.toml",
             Path::new("."),
         )
@@ -1191,7 +1191,7 @@ mod tests {
             e.message
         );
         // The thin wall replays too, on a box plate.
-        let fe = GOOD.replace("model = \"voxel\"", "model = \"fe\"");
+        let fe = GOOD.replace("model = \"voxel\"", "model = \"thin-wall\"");
         assert!(ReplayScenario::parse(&fe, "r.toml", Path::new(".")).is_ok());
         let unit = GOOD.replace("W/(mm K)", "W/mK");
         let e = ReplayScenario::parse(&unit, "r.toml", Path::new(".")).unwrap_err();

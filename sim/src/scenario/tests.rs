@@ -41,10 +41,43 @@ fn a_disc_plate_is_the_voxel_models_and_round() {
             "model = \"voxel\"\nplate_shape = \"disc\"\nplate_mm = [100.0, 80.0, 10.0]\n",
             "a disc's diameter twice",
         ),
-        ("plate_shape = \"disc\"\n", "\"box\" with model = \"fe\""),
+        (
+            "plate_shape = \"disc\"\n",
+            "\"box\" with model = \"thin-wall\"",
+        ),
         ("plate_shape = \"round\"\n", "\"box\" or \"disc\""),
     ] {
         let e = parse(&format!("{base}{keys}")).unwrap_err();
         assert!(e.message.contains(needle), "{needle}: {}", e.message);
     }
+}
+
+/// `$WAAMTWIN_DATA/…` is the measured builds' folder: the variable's, else the shared folder
+/// beside a checkout that holds the scenario; other paths lie beside the scenario file.
+#[test]
+fn data_paths_lead_to_the_shared_folder_beside_the_checkout() {
+    let root = std::env::temp_dir().join(format!("waamtwin-data-{}", std::process::id()));
+    let data = root.join("shared/validation-data");
+    let base = root.join("checkout/scenarios");
+    std::fs::create_dir_all(&data).unwrap();
+    std::fs::create_dir_all(&base).unwrap();
+    let found = super::resolve(&base, "$WAAMTWIN_DATA/ornl/log.csv");
+    let expected = match std::env::var_os(super::DATA_VAR) {
+        Some(d) => std::path::PathBuf::from(d).join("ornl/log.csv"),
+        None if std::path::Path::new("../shared/validation-data").is_dir() => {
+            std::path::PathBuf::from("../shared/validation-data/ornl/log.csv")
+        }
+        None => data.join("ornl/log.csv"),
+    };
+    assert_eq!(found, expected);
+    assert_eq!(
+        super::resolve(&base, "parts/a.obj"),
+        base.join("parts/a.obj")
+    );
+    // A name that merely begins like the variable is a file beside the scenario.
+    assert_eq!(
+        super::resolve(&base, "$WAAMTWIN_DATAX/a.csv"),
+        base.join("$WAAMTWIN_DATAX/a.csv")
+    );
+    std::fs::remove_dir_all(&root).unwrap();
 }
