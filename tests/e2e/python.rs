@@ -1,9 +1,11 @@
 //! The Python package (`python/`): installed from the checkout into a virtual environment
 //! with pip (maturin and numpy come from PyPI), then its own tests run against the binary of
 //! the same build (`python/tests/test_waamtwin.py`: the same plan to the byte, the GIL let go,
-//! progress, errors, Ctrl-C). Opt-in ([`crate::SYSTEM_TESTS`]): it reaches PyPI.
+//! progress, errors, Ctrl-C), and the example notebooks are executed as a reader would
+//! (`examples/run.py`: nbclient, a fresh kernel each), their own checks holding and their plots
+//! written. Opt-in ([`crate::SYSTEM_TESTS`]): it reaches PyPI.
 
-use crate::root;
+use crate::{root, scratch};
 use std::path::Path;
 use std::process::Command;
 
@@ -41,4 +43,40 @@ fn the_package_passes_its_tests() {
     eprintln!("{said}");
     assert!(out.status.success(), "the package's tests failed:\n{said}");
     assert!(said.contains("Ran 5 tests"), "{said}");
+
+    // The notebooks: the GAMMA wall calibrated (it reads the measured builds) and a dome
+    // dwelled. Each asserts what it shows; a failing cell fails run.py.
+    assert!(
+        ok(Command::new(venv.join("bin/pip"))
+            .args(["install", "--quiet", "--disable-pip-version-check", "-r"])
+            .arg(root().join("examples/requirements.txt"))),
+        "pip install -r examples/requirements.txt failed"
+    );
+    let out = scratch("notebooks");
+    let run = Command::new(venv.join("bin/python"))
+        .arg(root().join("examples/run.py"))
+        .arg(&out)
+        .env("WAAMTWIN_DATA", crate::data())
+        .current_dir(root())
+        .output()
+        .expect("run the notebooks");
+    let said =
+        String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "the notebooks failed:\n{said}");
+    for (notebook, plot) in [
+        ("gamma_wall_calibrated.ipynb", "gamma_calibrated.png"),
+        ("dome_planned_and_dwelled.ipynb", "dome_dwelled.png"),
+    ] {
+        let text = std::fs::read_to_string(out.join(notebook)).unwrap();
+        assert!(
+            !text.contains("\"output_type\": \"error\""),
+            "{notebook} shows an error"
+        );
+        let png = std::fs::read(out.join(plot)).unwrap();
+        assert!(
+            png.starts_with(b"\x89PNG") && png.len() > 20_000,
+            "{plot}: {} bytes",
+            png.len()
+        );
+    }
 }

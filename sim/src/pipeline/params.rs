@@ -1,5 +1,8 @@
 //! The engine's parameters: plain SI structs (geometry in mm) that a scenario file fills in, or
-//! a caller writes directly. Physical inputs have no `Default`: they come from the user.
+//! a caller writes directly. The settings a user may leave out have their documented defaults
+//! here ([`documented`], in the interface's units, and `Default` on the settings in SI): the
+//! scenario reader takes its defaults from the same constants. The process and the material
+//! (the machine's and the metal's own numbers) have none: they come from the user.
 
 use bead_model::as_built::HotMetalLaw;
 use bead_model::heat_input::ArcPower;
@@ -68,6 +71,46 @@ impl Material {
     }
 }
 
+/// The defaults of the settings a scenario may leave out, in the interface's units
+/// (scenarios/README.md documents each): one definition, which `ThermalSettings::default()`,
+/// `DwellSettings::default()`, `BeadSettings::default()` and the scenario reader share.
+pub mod documented {
+    /// The bead's width the footprint, plate cell and closing zone follow where it is not given.
+    pub const BEAD_WIDTH_MM: f64 = 5.0;
+    pub const AMBIENT_C: f64 = 20.0;
+    pub const CONVECTION_W_M2K: f64 = 15.0;
+    pub const EMISSIVITY: f64 = 0.6;
+    pub const LEAD_MM: f64 = 10.0;
+    pub const TABLE_CONTACT_W_M2K: f64 = 100.0;
+    pub const NODE_MM: f64 = 3.0;
+    pub const DEPOSIT_C: f64 = 1550.0;
+    pub const HOT_THRESHOLD_C: f64 = 600.0;
+    pub const VOXEL_MM: f64 = 2.0;
+    /// A common 250 mm square stock plate, grown to fit a larger part (`plate_fitted`).
+    pub const PLATE_MM: [f64; 3] = [250.0, 250.0, 10.0];
+    /// The thin wall's plate cell is the bead's width, at most this. A wall on cells wider than
+    /// itself loses its foot's heat into a cell's whole capacity at once: on the GAMMA wall (a
+    /// 2 mm bead) 5 mm cells ran the temperatures before each pass 18 % of the rise below the
+    /// voxel model's, 2 mm cells 2.6 % (docs/PHYSICS.md).
+    pub const PLATE_CELL_MAX_MM: f64 = 5.0;
+    pub const INTERPASS_MAX_C: f64 = 200.0;
+    pub const STRENGTH_LOSS_C: f64 = 550.0;
+    pub const MAX_DWELL_S: f64 = 600.0;
+    pub const MIN_DWELL_S: f64 = 5.0;
+    pub const MARGIN_C: f64 = 2.0;
+    pub const COUNT_WEIGHT_S: f64 = 0.0;
+    /// The closing zone's radius, in bead widths.
+    pub const CLOSING_ZONE_BEADS: f64 = 3.0;
+    /// Radel et al. 2019: Bo < 1 holds the melt pool.
+    pub const BOND_MAX: f64 = 1.0;
+    pub const HOT_HEIGHT_LOSS_PER_K: f64 = 0.0;
+    pub const HOT_REFERENCE_C: f64 = 20.0;
+    pub const HOT_MIN_FACTOR: f64 = 0.5;
+    pub const STICKOUT_MM: f64 = 15.0;
+}
+
+const MM: f64 = 1e-3;
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ThermalModel {
     /// The thin wall (`thermal::wall`): `model = "thin-wall"`.
@@ -100,6 +143,40 @@ pub struct ThermalSettings {
     pub lead_m: f64,
 }
 
+impl Default for ThermalSettings {
+    /// The documented defaults for the default bead: the thin wall, G3Si's temperature tables,
+    /// on a 250 × 250 × 10 mm plate grown to fit the part.
+    fn default() -> Self {
+        ThermalSettings::for_bead(documented::BEAD_WIDTH_MM)
+    }
+}
+
+impl ThermalSettings {
+    /// The documented defaults for a bead `width_mm` wide: the footprint is its width, the
+    /// thin wall's plate cell its width up to [`documented::PLATE_CELL_MAX_MM`].
+    pub fn for_bead(width_mm: f64) -> Self {
+        use documented as d;
+        ThermalSettings {
+            table_contact_w_m2k: d::TABLE_CONTACT_W_M2K,
+            plate_cell_m: width_mm.min(d::PLATE_CELL_MAX_MM) * MM,
+            node_m: d::NODE_MM * MM,
+            deposit_k: thermal::kelvin(d::DEPOSIT_C),
+            footprint_m: width_mm * MM,
+            hot_threshold_k: thermal::kelvin(d::HOT_THRESHOLD_C),
+            temperature_dependent: true,
+            voxel_m: d::VOXEL_MM * MM,
+            model: ThermalModel::ThinWall,
+            ambient_k: thermal::kelvin(d::AMBIENT_C),
+            convection_w_m2k: d::CONVECTION_W_M2K,
+            emissivity: d::EMISSIVITY,
+            plate_m: d::PLATE_MM.map(|v| v * MM),
+            plate_fit: true,
+            plate_disc: false,
+            lead_m: d::LEAD_MM * MM,
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct DwellSettings {
     pub interpass_max_k: f64,
@@ -125,6 +202,49 @@ pub struct BeadSettings {
     pub bond_max: f64,
     pub hot_metal: HotMetalLaw,
     pub stickout_m: f64,
+}
+
+impl Default for DwellSettings {
+    /// Every criterion on, a 200 °C interpass limit aimed 2 °C under, for the default bead.
+    fn default() -> Self {
+        DwellSettings::for_bead(documented::BEAD_WIDTH_MM)
+    }
+}
+
+impl DwellSettings {
+    /// The documented defaults, the closing zone three widths of a bead `width_mm` wide.
+    pub fn for_bead(width_mm: f64) -> Self {
+        use documented as d;
+        DwellSettings {
+            interpass_max_k: thermal::kelvin(d::INTERPASS_MAX_C),
+            interpass: true,
+            strength_loss_k: Some(thermal::kelvin(d::STRENGTH_LOSS_C)),
+            humping: true,
+            bond: true,
+            max_dwell_s: d::MAX_DWELL_S,
+            min_dwell_s: d::MIN_DWELL_S,
+            max_arc_stops: None,
+            margin_k: d::MARGIN_C,
+            count_weight_s: d::COUNT_WEIGHT_S,
+            closing_zone_mm: d::CLOSING_ZONE_BEADS * width_mm,
+        }
+    }
+}
+
+impl Default for BeadSettings {
+    /// Bo < 1, the hot-metal law off, a 15 mm stickout.
+    fn default() -> Self {
+        use documented as d;
+        BeadSettings {
+            bond_max: d::BOND_MAX,
+            hot_metal: HotMetalLaw {
+                reference_k: thermal::kelvin(d::HOT_REFERENCE_C),
+                height_loss_per_k: d::HOT_HEIGHT_LOSS_PER_K,
+                min_factor: d::HOT_MIN_FACTOR,
+            },
+            stickout_m: d::STICKOUT_MM * MM,
+        }
+    }
 }
 
 impl Process {

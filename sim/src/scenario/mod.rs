@@ -24,15 +24,12 @@ use std::path::{Path, PathBuf};
 use thermal::ZERO_CELSIUS_K as KELVIN;
 
 const MM: f64 = 1e-3;
-/// The plate where `[thermal] plate_mm` is left out: a common 250 mm square stock plate,
-/// grown to fit a larger part (`pipeline::plate_fitted`).
-const DEFAULT_PLATE_MM: [f64; 3] = [250.0, 250.0, 10.0];
+/// The plate where `[thermal] plate_mm` is left out (`pipeline::plate_fitted` grows it).
+const DEFAULT_PLATE_MM: [f64; 3] = crate::pipeline::params::documented::PLATE_MM;
 const M_MIN: f64 = 1.0 / 60.0;
 /// The thin wall's plate cell where `[thermal] plate_cell_mm` is left out: the bead's width, at
-/// most this. A wall on cells wider than itself loses its foot's heat into a cell's whole
-/// capacity at once: on the GAMMA wall (a 2 mm bead) 5 mm cells ran the temperatures before
-/// each pass 18 % of the rise below the voxel model's, 2 mm cells 2.6 % (docs/PHYSICS.md).
-pub const PLATE_CELL_MAX_MM: f64 = 5.0;
+/// most this (`documented::PLATE_CELL_MAX_MM`, where the reason is).
+pub const PLATE_CELL_MAX_MM: f64 = crate::pipeline::params::documented::PLATE_CELL_MAX_MM;
 
 /// Where the part's mid-surface comes from.
 #[derive(Debug, Clone, PartialEq)]
@@ -735,7 +732,9 @@ fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings>
         max_arc_stops: d.max_arc_stops,
         margin_k: d.margin_c,
         count_weight_s: d.count_weight_s,
-        closing_zone_mm: d.closing_zone_mm.unwrap_or(3.0 * bead_width_mm),
+        closing_zone_mm: d
+            .closing_zone_mm
+            .unwrap_or(crate::pipeline::params::documented::CLOSING_ZONE_BEADS * bead_width_mm),
     })
 }
 
@@ -1006,7 +1005,7 @@ fn bead(b: &RawBead, c: &Checker) -> Result<BeadSettings> {
         hot_metal: HotMetalLaw {
             reference_k: b.hot_reference_c + KELVIN,
             height_loss_per_k: b.hot_height_loss_per_k,
-            min_factor: 0.5,
+            min_factor: crate::pipeline::params::documented::HOT_MIN_FACTOR,
         },
         stickout_m: b.stickout_mm * MM,
     })

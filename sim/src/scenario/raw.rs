@@ -1,6 +1,7 @@
 //! `RawScenario`: exactly what serde reads from a scenario TOML, units in the key names, every
 //! default filled in. Nothing here is checked; [`super::Scenario::from_raw`] does that.
 
+use crate::pipeline::params::documented as d;
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -205,7 +206,7 @@ impl Default for RawProcess {
     fn default() -> Self {
         Self {
             wire_diameter_mm: 1.0,
-            bead_width_mm: 5.0,
+            bead_width_mm: d::BEAD_WIDTH_MM,
             travel_speed_mm_s: 10.0,
             deposit_mm: 2.0,
             deposit_min_mm: 1.8,
@@ -294,19 +295,19 @@ impl Default for RawThermal {
     fn default() -> Self {
         Self {
             model: "thin-wall".into(),
-            ambient_c: 20.0,
-            convection_w_m2k: 15.0,
-            emissivity: 0.6,
+            ambient_c: d::AMBIENT_C,
+            convection_w_m2k: d::CONVECTION_W_M2K,
+            emissivity: d::EMISSIVITY,
             plate_mm: None,
-            lead_mm: 10.0,
-            table_contact_w_m2k: 100.0,
+            lead_mm: d::LEAD_MM,
+            table_contact_w_m2k: d::TABLE_CONTACT_W_M2K,
             plate_cell_mm: None,
-            node_mm: 3.0,
-            deposit_c: 1550.0,
+            node_mm: d::NODE_MM,
+            deposit_c: d::DEPOSIT_C,
             footprint_mm: None,
-            hot_threshold_c: 600.0,
+            hot_threshold_c: d::HOT_THRESHOLD_C,
             properties: "temperature".into(),
-            voxel_mm: 2.0,
+            voxel_mm: d::VOXEL_MM,
             plate_shape: "box".into(),
         }
     }
@@ -350,8 +351,8 @@ pub struct RawDwell {
 impl Default for RawDwell {
     fn default() -> Self {
         Self {
-            interpass_max_c: 200.0,
-            strength_loss_c: 550.0,
+            interpass_max_c: d::INTERPASS_MAX_C,
+            strength_loss_c: d::STRENGTH_LOSS_C,
             criteria: vec![
                 "interpass".into(),
                 "strength".into(),
@@ -359,11 +360,11 @@ impl Default for RawDwell {
                 "bond".into(),
             ],
             policy: "revolution".into(),
-            max_dwell_s: 600.0,
-            min_dwell_s: 5.0,
+            max_dwell_s: d::MAX_DWELL_S,
+            min_dwell_s: d::MIN_DWELL_S,
             max_arc_stops: None,
-            margin_c: 2.0,
-            count_weight_s: 0.0,
+            margin_c: d::MARGIN_C,
+            count_weight_s: d::COUNT_WEIGHT_S,
             closing_zone_mm: None,
             confidence: None,
             check_draws: 100,
@@ -475,10 +476,10 @@ pub struct RawBead {
 impl Default for RawBead {
     fn default() -> Self {
         Self {
-            bond_max: 1.0,
-            hot_height_loss_per_k: 0.0,
-            hot_reference_c: 20.0,
-            stickout_mm: 15.0,
+            bond_max: d::BOND_MAX,
+            hot_height_loss_per_k: d::HOT_HEIGHT_LOSS_PER_K,
+            hot_reference_c: d::HOT_REFERENCE_C,
+            stickout_mm: d::STICKOUT_MM,
         }
     }
 }

@@ -81,3 +81,29 @@ fn data_paths_lead_to_the_shared_folder_beside_the_checkout() {
     );
     std::fs::remove_dir_all(&root).unwrap();
 }
+
+/// The defaults have one home, the engine's types: a scenario that leaves a section out runs
+/// at exactly `Default::default()` of its settings (the bead's width the default's).
+#[test]
+fn a_scenario_left_to_its_defaults_runs_at_the_engine_defaults() {
+    use crate::pipeline::params::{BeadSettings, DwellSettings, ThermalSettings};
+    let s = Scenario::parse(
+        "[part]\nshape = \"disk\"\nradius_mm = 1.0\n",
+        "d",
+        ".".as_ref(),
+    )
+    .unwrap();
+    let p = s.params();
+    assert_eq!(p.thermal, ThermalSettings::default());
+    assert_eq!(p.dwell, DwellSettings::default());
+    assert_eq!(p.bead, BeadSettings::default());
+    // Another bead width moves what follows it, as the reader does.
+    let s = Scenario::parse(
+        "[part]\nshape = \"disk\"\nradius_mm = 1.0\n[process]\nbead_width_mm = 3.5\n",
+        "d",
+        ".".as_ref(),
+    )
+    .unwrap();
+    assert_eq!(s.params().thermal, ThermalSettings::for_bead(3.5));
+    assert_eq!(s.params().dwell, DwellSettings::for_bead(3.5));
+}

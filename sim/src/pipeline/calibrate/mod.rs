@@ -8,6 +8,45 @@
 //! runs with the starting values and with the fitted ones are kept where they stopped
 //! (checkpoints), and the held-out window is reached by going on from them rather than by two
 //! runs from the start.
+//!
+//! A replay then a calibration from Rust, without a scenario file: a small wall's tracks on the
+//! voxel model, "measured" by a thermocouple on the plate in a run at 80 % efficiency, and the
+//! efficiency fitted back from 60 % on the first half of the build.
+//!
+//! ```
+//! use sim::measured::{probes::Series, toolpath::Waypoint};
+//! use sim::pipeline::calibrate::{Range, Task, calibrate};
+//! use sim::pipeline::checkpoint::Checkpoints;
+//! use sim::pipeline::params::{ThermalModel, ThermalSettings};
+//! use sim::pipeline::replay::{Laying, Parameter, Replay};
+//!
+//! let track = |k: usize, t: f64, x: f64, on| {
+//!     Waypoint { t_s: 20.0 * k as f64 + t, position_mm: [x, 0.0, 1.5 * (k + 1) as f64], on, power_w: None }
+//! };
+//! let path: Vec<Waypoint> =
+//!     (0..6).flat_map(|k| [track(k, 0.0, -15.0, false), track(k, 6.0, 15.0, true)]).collect();
+//! let laying = Laying { power_w: 1500.0, efficiency: 0.6, width_m: 4e-3, height_m: 1.5e-3, deposit_m: 2e-3 };
+//! let thermal = ThermalSettings {
+//!     model: ThermalModel::Voxel, plate_m: [0.06, 0.03, 0.008], plate_fit: false, ..Default::default()
+//! };
+//! let g3si = (thermal::material::Material::g3si(), None);
+//! let thermocouple = vec![[0.0, 0.008, 0.0]]; // on the plate's top, 8 mm beside the wall, m
+//! let r = Replay::new(&path, &laying, &thermal, g3si, Default::default(), thermocouple, 1.0)?;
+//!
+//! // The "measured" build: the same path at 80 % efficiency, its probe in °C.
+//! let truth = r.values.with(&[Parameter::Efficiency], &[0.8]);
+//! let (_, run) = r.run_kept(&truth, 120.0, &mut Checkpoints::off(), "")?;
+//! let p = &run.probes[0];
+//! let measured = Series {
+//!     t_s: p.time.clone(),
+//!     values: vec![p.temperature.iter().map(|k| Some(thermal::celsius(*k))).collect()],
+//! };
+//! let efficiency = (Parameter::Efficiency, Range { low: 0.3, high: 0.95 });
+//! let task = Task { parameters: vec![efficiency], fit_s: [0.0, 60.0], end_s: 120.0, max_runs: 12 };
+//! let c = calibrate(&r, &measured, &task, &mut Checkpoints::off())?;
+//! assert!((c.fit.values[0] - 0.8).abs() < 0.01, "{:?}", c.fit);
+//! # Ok::<(), sim::pipeline::Error>(())
+//! ```
 
 pub mod lm;
 
