@@ -16,7 +16,7 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::mpsc::{RecvTimeoutError, channel};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, TryLockError};
 use std::time::Duration;
 
 create_exception!(
@@ -44,6 +44,20 @@ fn run(py: Python<'_>, argv: Vec<String>, progress: Option<Py<PyAny>>) -> PyResu
     let cli = <sim::cli::Cli as clap::Parser>::try_parse_from(args)
         .map_err(|e| InputError::new_err(e.render().to_string().trim().to_string()))?;
     let follow = matches!(cli.command, sim::cli::Command::Follow { .. });
+    // One run at a time in the process: the progress observer and the stop request are the
+    // process's, and each run uses every core already (rayon). A second caller waits here
+    // with the GIL let go, and Ctrl-C ends its wait.
+    static ONE_RUN: Mutex<()> = Mutex::new(());
+    let _one = loop {
+        match ONE_RUN.try_lock() {
+            Ok(g) => break g,
+            Err(TryLockError::Poisoned(p)) => break p.into_inner(),
+            Err(TryLockError::WouldBlock) => {
+                py.detach(|| std::thread::sleep(POLL));
+                py.check_signals()?;
+            }
+        }
+    };
     let latest: Arc<Mutex<Option<(String, u64, u64)>>> = Arc::default();
     let told = latest.clone();
     sim::progress::observe(Some(Arc::new(move |stage: &str, done, total| {

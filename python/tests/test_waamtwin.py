@@ -107,6 +107,20 @@ class LongRuns(unittest.TestCase):
         self.assertGreater(len(heating), 3)
         self.assertEqual(heating, sorted(heating))
 
+    def test_runs_from_two_threads_take_turns_and_agree(self):
+        results = [None, None]
+
+        def run(k):
+            results[k] = waamtwin.simulate(SMALL)
+
+        threads = [threading.Thread(target=run, args=(k,)) for k in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        a, b = (r.path_of("layers.csv").read_bytes() for r in results)
+        self.assertEqual(a, b)
+
     def test_ctrl_c_stops_the_run(self):
         timer = threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT))
         start = time.monotonic()

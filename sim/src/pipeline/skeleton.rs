@@ -13,13 +13,33 @@
 
 use super::deposition::{heat_model, material};
 use super::params::{Material, Process, ThermalModel, ThermalSettings};
-use crate::scenario::SkeletonSettings;
 use planner::saam::{Planned, Skeleton, Slicer};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use thermal::error::ThermalError;
 use thermal::run::HeatRun;
 use thermal::schedule::{Deposit, DropPart};
+
+/// What skeleton arc AM needs beyond the part and the process (a scenario's `[skeleton]`,
+/// checked, or a caller's own): radii in mm, wire feed in m/min, times in s.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkeletonSettings {
+    pub radius_mm: f64,
+    pub radii_mm: Vec<f64>,
+    pub priorities: Vec<planner::saam::Priority>,
+    pub slicer: planner::saam::SlicerSettings,
+    pub wfs_m_min: f64,
+    pub closed_loop: bool,
+    pub camera_noise_mm: f64,
+    pub drop_height_noise: f64,
+    pub bad_drop_probability: f64,
+    pub bad_drop_height: f64,
+    pub seed: u64,
+    pub min_wait_s: f64,
+    pub max_wait_s: f64,
+    pub heat: bool,
+    pub max_drops: usize,
+}
 
 /// One drop as laid.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -23,6 +23,9 @@ use std::fmt::Display;
 use std::path::{Path, PathBuf};
 use thermal::ZERO_CELSIUS_K as KELVIN;
 
+/// `[skeleton]`, checked, is the engine's own settings type.
+pub use crate::pipeline::skeleton::SkeletonSettings;
+
 const MM: f64 = 1e-3;
 /// The plate where `[thermal] plate_mm` is left out (`pipeline::plate_fitted` grows it).
 const DEFAULT_PLATE_MM: [f64; 3] = crate::pipeline::params::documented::PLATE_MM;
@@ -835,26 +838,6 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
             max_rate_deg_mm: pl.tool_rate_max_deg_mm,
         },
     })
-}
-
-/// `[skeleton]`, checked: what skeleton arc AM needs beyond the part and the process.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SkeletonSettings {
-    pub radius_mm: f64,
-    pub radii_mm: Vec<f64>,
-    pub priorities: Vec<planner::saam::Priority>,
-    pub slicer: planner::saam::SlicerSettings,
-    pub wfs_m_min: f64,
-    pub closed_loop: bool,
-    pub camera_noise_mm: f64,
-    pub drop_height_noise: f64,
-    pub bad_drop_probability: f64,
-    pub bad_drop_height: f64,
-    pub seed: u64,
-    pub min_wait_s: f64,
-    pub max_wait_s: f64,
-    pub heat: bool,
-    pub max_drops: usize,
 }
 
 fn skeleton(k: &RawSkeleton, c: &Checker) -> Result<SkeletonSettings> {
