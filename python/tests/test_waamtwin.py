@@ -97,12 +97,20 @@ class LongRuns(unittest.TestCase):
         told = []
         t.start()
         start = time.monotonic()
-        waamtwin.simulate(DOME, output={"frames": 0}, progress=lambda s, d, n: told.append((s, d, n)))
+        r = waamtwin.simulate(
+            DOME, output={"frames": 0}, progress=lambda s, d, n: told.append((s, d, n))
+        )
         wall = time.monotonic() - start
         stop.set()
         t.join()
         # Held GIL: the counter would not move at all while the engine ran.
         self.assertGreater(ticks[0], 0.5 * wall / 0.005 * 0.5, (ticks[0], wall))
+        # The dome overheats without dwells: its risk column (text) names the criteria broken,
+        # an array of str as long as the numbers beside it.
+        risk = r.layers["risk"]
+        self.assertEqual(risk.dtype.kind, "U")
+        self.assertEqual(len(risk), len(r.layers["preheat_max_c"]))
+        self.assertTrue(any(v for v in risk))
         heating = [d for s, d, n in told if s == "heating the build"]
         self.assertGreater(len(heating), 3)
         self.assertEqual(heating, sorted(heating))

@@ -30,6 +30,8 @@ import weakref
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional, Union
 
+import numpy as np
+
 from . import _native
 from ._native import InputError, SimulationError, __version__
 
@@ -63,7 +65,7 @@ class Result:
 
     Attributes: ``command`` (its name), ``summary`` (the line the command prints), ``files``
     (the names it wrote, relative to its output folder), ``tables`` (every CSV by its stem, a
-    dict of numpy arrays, text columns as lists of str), ``json`` (every JSON file by its stem).
+    dict of numpy arrays: float64, or str for a text column), ``json`` (every JSON file by its stem).
     A table or JSON file is also an attribute by its stem: ``r.path``, ``r.layers``,
     ``r.thermal``.
     """
@@ -89,7 +91,12 @@ class Result:
         if stem not in self._tables:
             if stem not in self._stems(".csv"):
                 raise KeyError(f"{self.command} wrote no {stem}.csv; it wrote {self.files}")
-            self._tables[stem] = _native.read_table(self._folder / f"{stem}.csv")
+            columns = _native.read_table(self._folder / f"{stem}.csv")
+            # Text columns (a probe's name, a risk) as numpy arrays of str, like the numbers.
+            self._tables[stem] = {
+                k: (np.asarray(v, dtype=str) if isinstance(v, list) else v)
+                for k, v in columns.items()
+            }
         return self._tables[stem]
 
     def json_file(self, name: str) -> dict:

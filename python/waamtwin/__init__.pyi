@@ -16,7 +16,7 @@ __version__: str
 
 Scenario = Union[str, PathLike[str], Mapping[str, Any]]
 Progress = Optional[Callable[[str, int, int], Any]]
-Table = dict[str, Union[np.ndarray, list[str]]]
+Table = dict[str, np.ndarray]
 
 class Result:
     """What a command wrote, read back; a table or JSON file is also an attribute by its stem

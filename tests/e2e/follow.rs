@@ -101,14 +101,17 @@ pub(crate) fn scenario_with(scenario: &Path, probes: &Path, live: &str, at: &Pat
                 let file = rest.trim_end_matches('"');
                 let path = match section.as_str() {
                     "[probes]" => probes.to_path_buf(),
-                    _ => base.join(file),
+                    _ => sim::scenario::resolve(base, file),
                 };
                 format!("file = {:?}", path.to_str().unwrap())
             }
             _ => match t.split_once("_table = \"") {
                 Some((key, rest)) => {
                     let file = rest.trim_end_matches('"');
-                    format!("{key}_table = {:?}", base.join(file).to_str().unwrap())
+                    format!(
+                        "{key}_table = {:?}",
+                        sim::scenario::resolve(base, file).to_str().unwrap()
+                    )
                 }
                 None => line.to_string(),
             },
