@@ -113,16 +113,16 @@ pub fn assert_physical(out: &Path) {
     assert!(cloud_before > 0, "no /wall/temperature cloud in run.mcap");
 }
 
+/// A small dome on the voxel model, its field kept at 30 times.
+const VOXEL_DOME: &str = "[part]\nshape = \"hemisphere\"\nradius_mm = 25.0\nedge_mm = 2.5\n\
+    [planner]\nn_points = 48\n[thermal]\nmodel = \"voxel\"\nplate_mm = [90.0, 90.0, 8.0]\n\
+    [output]\nplots = false\nframes = 30\n";
+
 /// The same bounds on a voxel run: its field is one temperature per deposit, the mean of its
 /// metal.
 #[test]
 fn voxel_outputs_are_physical() {
-    let out = crate::run_scenario(
-        "outputs_voxel",
-        "simulate",
-        "[part]\nshape = \"hemisphere\"\nradius_mm = 25.0\nedge_mm = 2.5\n[planner]\nn_points = 48\n\
-         [thermal]\nmodel = \"voxel\"\nplate_mm = [90.0, 90.0, 8.0]\n[output]\nplots = false\nframes = 30\n",
-    );
+    let out = crate::run_scenario("outputs_voxel", "simulate", VOXEL_DOME);
     assert_eq!(json(&out.join("thermal.json"))["model"], "voxel");
     assert_physical(&out);
 }
@@ -134,12 +134,7 @@ fn voxel_outputs_are_physical() {
     ignore = "opt-in, WAAMTWIN_SYSTEM_TESTS=1: the reference readers from PyPI"
 )]
 fn voxel_outputs_open_in_their_readers() {
-    let out = crate::run_scenario(
-        "outputs_voxel_readers",
-        "simulate",
-        "[part]\nshape = \"hemisphere\"\nradius_mm = 25.0\nedge_mm = 2.5\n[planner]\nn_points = 48\n\
-         [thermal]\nmodel = \"voxel\"\nplate_mm = [90.0, 90.0, 8.0]\n[output]\nplots = false\nframes = 30\n",
-    );
+    let out = crate::run_scenario("outputs_voxel_readers", "simulate", VOXEL_DOME);
     open_in_readers(&out);
 }
 
