@@ -6,7 +6,7 @@ TOML file, as TOML text, or as a dict of its sections (the same keys; docs/INTER
 keyword arguments: a dict under a section's name is merged into that section
 (``dwell={"confidence": 0.95}``), anything else is one of the command's options
 (``baselines=False``). Each returns a :class:`Result`: its tables as dicts of numpy arrays named
-as the CSV columns (``r.path["x_mm"]``, ``r.layers["preheat_max_c"]``), its JSON files as dicts
+as the CSV columns (``r.path["x"]``, ``r.layers["preheat_max_c"]``), its JSON files as dicts
 (``r.thermal``, ``r.dwell``, ``r.manifest``), and ``r.write(dir)`` writes exactly the files the
 command writes.
 
@@ -70,17 +70,15 @@ class Result:
     ``r.thermal``.
     """
 
-    def __init__(self, command: str, summary: str, folder: Path, owned: bool):
+    def __init__(self, command: str, summary: str, folder: Path):
         self.command = command
         self.summary = summary
         self._folder = folder
-        self.files = sorted(
-            str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file()
-        )
+        self.files = _listing(folder)
         self._tables: dict = {}
         self._json: dict = {}
-        if owned:
-            weakref.finalize(self, shutil.rmtree, folder.parent, True)
+        # The run's temporary folder goes with the result.
+        weakref.finalize(self, shutil.rmtree, folder.parent, True)
 
     def _stems(self, suffix: str) -> list:
         return [f[: -len(suffix)] for f in self.files if f.endswith(suffix) and "/" not in f]
@@ -146,6 +144,11 @@ class Result:
 
     def __repr__(self) -> str:
         return f"<waamtwin.Result {self.command}: {self.summary!r}, {len(self.files)} files>"
+
+
+def _listing(folder: Path) -> list:
+    """The files under `folder`, relative to it, sorted."""
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
 
 
 def _merge(base: dict, extra: Mapping) -> dict:
@@ -256,7 +259,7 @@ def _run(command, scenario, kwargs, allowed, progress, extra=()):
     finally:
         if source is not None:
             source.remove()
-    return Result(command, summary, out, owned=True)
+    return Result(command, summary, out)
 
 
 def plan(scenario: Scenario, *, progress: Progress = None, **kwargs) -> Result:
@@ -343,7 +346,5 @@ def export(
             flags += ["--" + key.replace("_", "-"), ",".join(str(float(v)) for v in value)]
     line = _native.run(["export", str(folder), *flags], None)
     if isinstance(run, Result):
-        run.files = sorted(
-            str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file()
-        )
+        run.files = _listing(folder)
     return line
