@@ -37,6 +37,22 @@ pub struct Arm {
     pub length_mm: f64,
 }
 
+impl Default for Nozzle {
+    /// A CMT torch's nozzle: Ø 20 mm, 80 mm long, its tip 12 mm from the deposit; turned up to
+    /// 30° about the travel at 2° per mm where it would hit; no arm checked.
+    fn default() -> Self {
+        Nozzle {
+            radius_mm: 10.0,
+            standoff_mm: 12.0,
+            length_mm: 80.0,
+            max_rotation_deg: 30.0,
+            rotation_rate_deg_mm: 2.0,
+            tube_radius_mm: 0.0,
+            arm: None,
+        }
+    }
+}
+
 impl Nozzle {
     /// The cylinders on the tool axis: (from, to, radius) along it from the deposit, widened by
     /// R_tube.

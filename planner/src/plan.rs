@@ -35,6 +35,23 @@ pub struct PlanParams {
     pub torch: Torch,
 }
 
+impl Default for PlanParams {
+    /// The documented defaults (scenarios/README.md `[planner]`): 120 points a generator,
+    /// ε₀ = 0.2 mm, a 2 mm deposit within [1.8, 2.2] mm, the default nozzle and torch.
+    fn default() -> Self {
+        PlanParams {
+            n_points: 120,
+            gap_max_mm: 0.2,
+            deposit_mm: 2.0,
+            deposit_min_mm: 1.8,
+            deposit_max_mm: 2.2,
+            tolerance_mm: 0.01,
+            nozzle: crate::collision::Nozzle::default(),
+            torch: crate::frame::Torch::default(),
+        }
+    }
+}
+
 /// One point of the path, in deposition order.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PathPoint {

@@ -140,6 +140,49 @@ class LongRuns(unittest.TestCase):
         # And the next run runs.
         self.assertIn("build", waamtwin.simulate(SMALL).summary)
 
+    def test_ctrl_c_ends_a_follow_with_its_files(self):
+        # A small wall whose logger has written its first 40 s and then nothing more: follow
+        # waits for the rest until Ctrl-C, which ends it as on the command line, its files
+        # written and its result returned.
+        with tempfile.TemporaryDirectory() as d:
+            d = Path(d)
+            path = "t_s,x_mm,y_mm,z_mm,on\n" + "".join(
+                f"{20 * k},-20,0,{1.5 * (k + 1)},0\n{20 * k + 8},20,0,{1.5 * (k + 1)},1\n"
+                for k in range(6)
+            )
+            (d / "path.csv").write_text(path)
+            log = ["t_s,a_c"] + [
+                f"{0.5 * j},{25 + 60 * (1 - np.exp(-0.5 * j / 80)):.2f}" for j in range(81)
+            ]
+            (d / "log.csv").write_text("\n".join(log) + "\n")
+            scenario = {
+                "toolpath": {"file": str(d / "path.csv"), "deposit_mm": 2.0},
+                "process": {
+                    "power_w": 2000.0,
+                    "efficiency": 0.8,
+                    "bead_width_mm": 4.0,
+                    "layer_height_mm": 1.5,
+                },
+                "material": {"preset": "G3Si"},
+                "thermal": {"model": "voxel", "voxel_mm": 2.0, "plate_mm": [80.0, 40.0, 6.0]},
+                "probes": {
+                    "file": str(d / "log.csv"),
+                    "unit": "C",
+                    "points": [{"name": "a", "column": 1, "x_mm": 0.0, "y_mm": 8.0, "z_mm": 0.0}],
+                },
+                "calibrate": {"parameters": [{"name": "efficiency", "low": 0.5, "high": 0.95}]},
+                "live": {"ensemble": 4, "forecast_every_s": 10.0, "forecast_horizons_s": [10.0]},
+            }
+            timer = threading.Timer(8.0, lambda: os.kill(os.getpid(), signal.SIGINT))
+            start = time.monotonic()
+            timer.start()
+            r = waamtwin.follow(scenario)
+            self.assertLess(time.monotonic() - start, 30.0)
+            self.assertEqual(r.follow["state"], "interrupted (Ctrl-C)")
+            self.assertEqual(r.follow["rows"], 81)
+            self.assertGreater(len(r.forecasts["made_at_s"]), 0)
+            self.assertTrue(np.all(r.forecasts["made_at_s"] <= 40.0))
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -89,9 +89,9 @@ impl From<thermal::ThermalError> for Error {
 impl From<crate::pipeline::Error> for Error {
     fn from(e: crate::pipeline::Error) -> Self {
         match e {
-            crate::pipeline::Error::Plan(_) | crate::pipeline::Error::Measured(_) => {
-                Error::input(e.to_string())
-            }
+            crate::pipeline::Error::Plan(_)
+            | crate::pipeline::Error::Measured(_)
+            | crate::pipeline::Error::Invalid(_) => Error::input(e.to_string()),
             crate::pipeline::Error::Thermal(t) => t.into(),
             crate::pipeline::Error::Lost(_) => Error::failure(e.to_string()),
         }

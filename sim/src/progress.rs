@@ -79,3 +79,30 @@ impl Drop for Bar {
         self.0.finish_and_clear();
     }
 }
+
+/// An engine call's progress on the terminal: a spinner per stage, turned into a bar with an
+/// ETA once the stage lays deposits.
+#[derive(Default)]
+pub struct Terminal {
+    what: String,
+    stage: Option<Stage>,
+    bar: Option<Bar>,
+}
+
+impl crate::pipeline::Report for Terminal {
+    fn stage(&mut self, what: &str) {
+        (self.bar, self.stage) = (None, None);
+        self.what = what.to_string();
+        self.stage = Some(Stage::start(what));
+    }
+
+    fn laid(&mut self, done: usize, total: usize) {
+        if self.bar.is_none() {
+            self.stage = None;
+            self.bar = Some(Bar::start(&self.what, total as u64));
+        }
+        if let Some(b) = &self.bar {
+            b.set(done, total);
+        }
+    }
+}

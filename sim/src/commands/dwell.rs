@@ -2,17 +2,16 @@
 //! check them in a fresh simulation of the dwelled path, and compare with the baselines.
 
 use super::checkpoint;
-use super::simulate::{heat, record, write_thermal};
+use super::simulate::{record, write_thermal};
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
 use crate::pipeline::checkpoint::Checkpoints;
-use crate::pipeline::deposition::Cooling;
 use crate::pipeline::dwell::DwellPlan;
-use crate::pipeline::dwell::{dwell_points, first_risk, uniform_baseline, wait_until_cool};
+use crate::pipeline::dwelled::{self, AtMean, Dwelled};
 use crate::pipeline::{Build, Simulation};
 use crate::pipeline::{arc_stops, risk};
-use crate::progress::Stage;
+use crate::progress::Terminal;
 use crate::scenario::Scenario;
 use serde_json::{Value, json};
 use std::fmt::Write;
@@ -39,104 +38,6 @@ pub fn run(
     let line = plan_and_dwell(&s, &file, &mut dir, extras, Some(resume))?;
     dir.finish("dwell", s.to_json())?;
     Ok(line)
-}
-
-/// A dwell search's plan and what it was weighed against.
-struct Searched {
-    plan: DwellPlan,
-    budget: Option<(usize, arc_stops::Budgeted)>,
-    search_s: f64,
-    revolution: DwellPlan,
-    searched: usize,
-    searched_build_s: f64,
-    kept: arc_stops::Kept,
-}
-
-/// The dwell search (within the arc-stop budget where there is one), the revolution-dwell
-/// yardstick, and the better of the two.
-fn search(b: &Build, ck: &mut Checkpoints<'_>) -> Result<Searched> {
-    let (plan, budget, search_s) = {
-        let _stage = Stage::start("planning the dwells");
-        match b.params.dwell.max_arc_stops {
-            Some(max) => {
-                let (r, wall_s) = ck.stage("search", |_, _| arc_stops::within_budget(b, max))?;
-                (r.plan.clone(), Some((max, r)), wall_s)
-            }
-            None => {
-                let weight = b.params.dwell.count_weight_s;
-                let (plan, wall_s) = ck.stage("search", |ck, progress| {
-                    b.plan_dwells_kept(weight, ck, progress)
-                })?;
-                (plan, None, wall_s)
-            }
-        }
-    };
-    let revolution = {
-        let _stage = Stage::start("the yardstick: one dwell before each revolution");
-        ck.stage("revolution_dwell", |_, _| b.revolution_dwells())?
-            .0
-    };
-    let searched = arc_stops::arc_stops(&plan);
-    let searched_build_s = arc_stops::build_time_s(b, &plan);
-    let (plan, kept) = arc_stops::never_worse(b, plan, &revolution);
-    Ok(Searched {
-        plan,
-        budget,
-        search_s,
-        revolution,
-        searched,
-        searched_build_s,
-        kept,
-    })
-}
-
-/// The plan at the calibration's mean, and the design point of its cooling.
-struct AtMean {
-    build: Build,
-    plan: DwellPlan,
-    design: crate::pipeline::confidence::DesignPoint,
-    uncertainty: crate::pipeline::confidence::Uncertainty,
-}
-
-fn plan_at_mean(b: &Build, c: &crate::pipeline::confidence::Settings) -> Result<AtMean> {
-    let plan = {
-        let _stage = Stage::start("the plan at the calibration's mean");
-        search(b, &mut Checkpoints::off())?.plan
-    };
-    let _stage = Stage::start("the design point: a run a standard deviation off per parameter");
-    let design =
-        crate::pipeline::confidence::design_point(b, &c.uncertainty, c.confidence, &plan.cooling)?;
-    Ok(AtMean {
-        build: b.clone(),
-        plan,
-        design,
-        uncertainty: c.uncertainty.clone(),
-    })
-}
-
-/// The plan at θ* and the plan at the mean, each under the same fresh draws.
-fn check_both(
-    b: &Build,
-    m: &AtMean,
-    c: &crate::pipeline::confidence::Settings,
-    cooling: &Cooling,
-    safe: &[bool],
-) -> Result<(
-    crate::pipeline::confidence::Check,
-    crate::pipeline::confidence::Check,
-)> {
-    use crate::pipeline::confidence::{check, draws};
-    let x = draws(&m.uncertainty, c.check_draws, c.seed);
-    let q = c.confidence;
-    let star = check(b, &m.uncertainty, cooling, safe, &x, q)?;
-    let own = m.build.simulate_cooled(&m.plan.cooling, 0, Vec::new())?;
-    let safe_mean: Vec<bool> = own
-        .risks(&m.build.criteria)
-        .iter()
-        .map(|r| r.is_none())
-        .collect();
-    let mean = check(&m.build, &m.uncertainty, &m.plan.cooling, &safe_mean, &x, q)?;
-    Ok((star, mean))
 }
 
 /// The report's and the recordings' sentence: the design point, both plans' violation
@@ -231,10 +132,9 @@ fn keeps(s: &Scenario) -> super::cost::Keeps {
     }
 }
 
-/// Plan, simulate, plan the dwells and simulate the dwelled path, writing every file of the
-/// dwell command into `dir` (all but the manifest). With `resume`, each stage is kept in the
-/// run's checkpoint folder (a heat run, the search between revolutions; the baselines and the
-/// front as each finishes) and taken from there by `--resume`.
+/// Plan, simulate, plan the dwells and simulate the dwelled path ([`dwelled::dwell`]),
+/// writing every file of the dwell command into `dir` (all but the manifest). With `resume`,
+/// each stage is kept in the run's checkpoint folder and taken from there by `--resume`.
 pub fn plan_and_dwell(
     s: &Scenario,
     file: &str,
@@ -244,16 +144,6 @@ pub fn plan_and_dwell(
 ) -> Result<String> {
     let part = load_part(&s.part)?;
     let b = super::plan::build(s, &part)?;
-    // At a confidence: the plan at the mean first, its design point θ*, and the build at θ*
-    // that the rest of this command plans and judges (pipeline::confidence).
-    let at_mean = match &s.confidence {
-        Some(c) => Some(plan_at_mean(&b, c)?),
-        None => None,
-    };
-    let b = match &at_mean {
-        Some(m) => crate::pipeline::confidence::build_at(&b, &m.uncertainty, &m.design.x),
-        None => b,
-    };
     let mut folder = match resume {
         Some(o) => {
             let print = checkpoint::of_run("dwell", &s.to_json(), b.deposits());
@@ -273,8 +163,34 @@ pub fn plan_and_dwell(
         Some(f) => Checkpoints::to(f),
         None => Checkpoints::off(),
     };
-    let before = heat(&b, &Cooling::default(), 0, &mut ck, "before")?;
-    let Searched {
+    let options = dwelled::Options {
+        confidence: s.confidence.clone(),
+        baselines: extras.baselines,
+        pareto: extras.pareto,
+        frames: s.output.frames,
+        traces: match s.output.frames {
+            0 => Vec::new(),
+            _ => crate::record::history_points(b.plan.points.len()).to_vec(),
+        },
+    };
+    let d = dwelled::dwell(b, &options, &mut ck, &mut Terminal::default())?;
+    let line = write(dir, s, &part, &d)?;
+    if let Some(folder) = folder {
+        folder.close()?;
+    }
+    Ok(line)
+}
+
+/// dwell.json, dwells.csv, pareto.csv, the plan's and the heat's files and the recordings of
+/// a dwell run; its summary line.
+fn write(
+    dir: &mut RunDir,
+    s: &Scenario,
+    part: &planner::mesh::Part,
+    d: &Dwelled,
+) -> Result<String> {
+    let (b, before, after) = (&d.build, &d.before, &d.after);
+    let dwelled::Searched {
         plan,
         budget,
         search_s,
@@ -282,18 +198,11 @@ pub fn plan_and_dwell(
         searched,
         searched_build_s,
         kept,
-    } = search(&b, &mut ck)?;
-    let bound = match &budget {
-        Some((_, r)) => r.bound.clone(),
-        None => {
-            let _stage = Stage::start("the fewest arc stops any plan can make");
-            ck.stage("bound", |_, _| b.arc_stops_lower_bound())?.0
-        }
-    };
-    let after = heat(&b, &plan.cooling, s.output.frames, &mut ck, "after")?;
-    let (pl, d) = (&b.plan, &b.params.dwell);
+    } = &d.searched;
+    let (search_s, bound) = (*search_s, &d.bound);
+    let (pl, dw) = (&b.plan, &b.params.dwell);
     let risks_after = after.risks(&b.criteria);
-    let zone = b.closing_zone(&after);
+    let zone = b.closing_zone(after);
     let risky_after: Vec<usize> = (0..pl.points.len())
         .filter(|&i| risks_after[i].is_some())
         .collect();
@@ -314,11 +223,11 @@ pub fn plan_and_dwell(
         "policy": "revolution",
         "model": after.model,
         "criteria": {
-            "interpass_max_c": celsius(d.interpass_max_k),
-            "interpass": d.interpass,
-            "strength_loss_c": d.strength_loss_k.map(celsius),
-            "humping": d.humping,
-            "bond": d.bond,
+            "interpass_max_c": celsius(dw.interpass_max_k),
+            "interpass": dw.interpass,
+            "strength_loss_c": dw.strength_loss_k.map(celsius),
+            "humping": dw.humping,
+            "bond": dw.bond,
         },
         "total_dwell_s": total,
         // Dwells with the arc off, drops' waits apart.
@@ -329,17 +238,17 @@ pub fn plan_and_dwell(
             .filter(|&i| c.dwell_s[i] > 0.0 && c.drop[i].is_none())
             .map(|i| c.dwell_s[i])
             .reduce(f64::min),
-        "min_dwell_s": d.min_dwell_s,
-        "cost_s": total + d.count_weight_s * stops as f64,
+        "min_dwell_s": dw.min_dwell_s,
+        "cost_s": total + dw.count_weight_s * stops as f64,
         "arc_stops_lower_bound": bound.stops,
         "kept": kept.name(),
         "search_plan": {"arc_stops": searched, "build_time_s": searched_build_s},
-        "revolution_dwell": revolution_json(&b, &revolution),
-        "arc_stops_bound": bound_json(&bound, stops),
+        "revolution_dwell": revolution_json(b, revolution),
+        "arc_stops_bound": bound_json(bound, stops),
         "build_time_s": {"before": before.build_time_s(), "after": after.build_time_s()},
-        "slow_down": slow_down_json(&b, &after),
-        "closing_strategy": closing_json(&b, &plan, &after),
-        "first_risk_before": first_risk_json(&b, &before),
+        "slow_down": slow_down_json(b, after),
+        "closing_strategy": closing_json(b, plan, after),
+        "first_risk_before": first_risk_json(b, before),
         "risky_points_after": risky_after.len(),
         "risky_points_after_outside_closing_zone": risky_after.iter().filter(|&&i| !zone[i]).count(),
         "risky_points_after_no_dwell_can_help": beyond_dwells,
@@ -355,20 +264,18 @@ pub fn plan_and_dwell(
     });
     // How sure the plan is, in one sentence for the report and the recordings.
     let mut sure = None;
-    if let (Some(m), Some(c)) = (&at_mean, &s.confidence) {
-        let _stage = Stage::start("the plans under fresh parameter draws");
+    if let (Some(sr), Some(c)) = (&d.sure, &s.confidence) {
+        let m = &sr.at_mean;
         summary["confidence"] = json!(c.confidence);
         summary["dwell_s"] = json!(total);
         summary["dwell_s_at_mean"] = json!(m.plan.cooling.total_dwell_s());
         summary["arc_stops_at_mean"] = json!(m.plan.cooling.arc_stops());
-        let safe: Vec<bool> = risks_after.iter().map(|r| r.is_none()).collect();
-        let (check, check_mean) = check_both(&b, m, c, &plan.cooling, &safe)?;
-        summary["violation_probability"] = json!(check.violation_probability());
-        summary["violation_probability_at_mean"] = json!(check_mean.violation_probability());
-        summary["confidence_detail"] = confidence_json(m, c, &check, &check_mean, &after);
-        sure = Some(how_sure(m, c, &check, &check_mean, (total, stops)));
+        summary["violation_probability"] = json!(sr.check.violation_probability());
+        summary["violation_probability_at_mean"] = json!(sr.check_at_mean.violation_probability());
+        summary["confidence_detail"] = confidence_json(m, c, &sr.check, &sr.check_at_mean, after);
+        sure = Some(how_sure(m, c, &sr.check, &sr.check_at_mean, (total, stops)));
     }
-    if let Some((max, r)) = &budget {
+    if let Some((max, r)) = budget {
         summary["arc_stop_budget"] = json!({
             "max_arc_stops": max,
             "met": r.met,
@@ -382,14 +289,11 @@ pub fn plan_and_dwell(
             "tried": r.tried.iter().map(tried_json).collect::<Vec<_>>(),
         });
     }
-    if extras.pareto {
-        let _stage = Stage::start("the arc-stop front: a dwell plan per weight of an arc stop");
-        let known = budget.as_ref().map_or(&[][..], |(_, r)| r.tried.as_slice());
-        let plans = ck.stage("front", |_, _| arc_stops::front(&b, known))?.0;
+    if let Some(plans) = &d.front {
         let mut csv = String::from(
             "weight_s,arc_stops,total_dwell_s,build_time_s,on_front,slowed_points,drops\n",
         );
-        for t in &plans {
+        for t in plans {
             let _ = writeln!(
                 csv,
                 "{},{},{:.3},{:.3},{},{},{}",
@@ -397,7 +301,7 @@ pub fn plan_and_dwell(
                 t.arc_stops,
                 t.total_dwell_s,
                 t.build_time_s,
-                u8::from(arc_stops::on_front(t, &plans)),
+                u8::from(arc_stops::on_front(t, plans)),
                 t.slowed_points,
                 t.drops
             );
@@ -408,58 +312,26 @@ pub fn plan_and_dwell(
         crate::record::pareto_plot(
             dir,
             "dwell plans",
-            &plans,
+            plans,
             budget.as_ref().map(|b| b.0),
             bound.stops,
         )?;
     }
-    if extras.baselines {
-        let _stage = Stage::start("baselines: uniform dwell, wait until cool");
-        let deps = b.deposits();
-        let model = b.heat_model(deps, Vec::new());
-        let pacing = b.pacing();
-        let search = b.search(&pacing);
-        let uniform = ck
-            .stage("uniform", |_, _| {
-                uniform_baseline(&search, pl, &model, deps)
-            })?
-            .0;
-        // Where the uniform policy stops working (a dome's closing zone), both are compared on
-        // the points before.
-        let until = uniform.until;
-        let slots = dwell_points(pl, deps, model.lead())
-            .into_iter()
-            .filter(|&i| i < until)
-            .count();
-        let planned_there: f64 = plan.dwell_s()[..until].iter().sum();
-        let waits = ck
-            .stage("wait_until_cool", |_, _| {
-                wait_until_cool(&search, pl, &model, deps)
-            })?
-            .0;
-        let wait_total: f64 = waits.iter().sum();
-        let n = deps.len();
-        let wait_risk = ck
-            .stage("wait_until_cool_risk", |_, _| {
-                first_risk(&search, &model, deps, &waits, n)
-            })?
-            .0;
-        let wait_safe_until = wait_risk.map_or(n, |(i, _)| i);
-        // Where it fails, all of it: a fresh run with its waits, every point judged.
-        let wait_risks = ck
-            .stage("wait_until_cool_run", |_, _| {
-                Ok::<_, thermal::ThermalError>(b.simulate(&waits, 0)?.risks(&b.criteria))
-            })?
-            .0;
+    if let Some(bl) = &d.baselines {
+        let n = b.deposits().len();
+        let (uniform, until, slots) = (&bl.uniform, bl.uniform.until, bl.slots);
+        let planned_there = bl.planned_there_s;
+        let wait_total: f64 = bl.waits.iter().sum();
+        let wait_safe_until = bl.wait_risk.map_or(n, |(i, _)| i);
         let wait_failing: std::collections::BTreeMap<usize, std::collections::BTreeSet<&str>> = (0
             ..n)
-            .filter_map(|i| wait_risks[i].map(|r| (pl.points[i].layer, r.as_str())))
+            .filter_map(|i| bl.wait_risks[i].map(|r| (pl.points[i].layer, r.as_str())))
             .fold(Default::default(), |mut m, (layer, r)| {
                 m.entry(layer).or_default().insert(r);
                 m
             });
         summary["baselines"] = json!({
-            "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(&b, &before)},
+            "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(b, before)},
             "uniform": {
                 "dwell_per_revolution_s": uniform.dwell_s,
                 "judged_before_point": until,
@@ -469,11 +341,11 @@ pub fn plan_and_dwell(
                 "planned_dwell_there_s": planned_there,
                 "ratio": uniform.dwell_s.map(|d| planned_there / (d * slots as f64).max(1e-9)),
             },
-            "wait_until_cool": {"total_dwell_s": wait_total, "dwell_count": waits.iter().filter(|&&d| d > 0.0).count(),
-                "safe": wait_risk.is_none(),
-                "first_risk": wait_risk.map(|(i, r)| json!({"i": i, "layer": pl.points[i].layer, "reason": r.as_str()})),
-                "its_dwell_before_that_s": waits[..wait_safe_until].iter().sum::<f64>(),
-                "risky_points": wait_risks.iter().filter(|r| r.is_some()).count(),
+            "wait_until_cool": {"total_dwell_s": wait_total, "dwell_count": bl.waits.iter().filter(|&&d| d > 0.0).count(),
+                "safe": bl.wait_risk.is_none(),
+                "first_risk": bl.wait_risk.map(|(i, r)| json!({"i": i, "layer": pl.points[i].layer, "reason": r.as_str()})),
+                "its_dwell_before_that_s": bl.waits[..wait_safe_until].iter().sum::<f64>(),
+                "risky_points": bl.wait_risks.iter().filter(|r| r.is_some()).count(),
                 "risky_layers": wait_failing.iter().map(|(l, c)| json!({"layer": l, "criteria": c})).collect::<Vec<_>>(),
                 "planned_dwell_before_that_s": plan.dwell_s()[..wait_safe_until].iter().sum::<f64>()},
         });
@@ -482,14 +354,14 @@ pub fn plan_and_dwell(
         }
         summary["ratio_to_wait_until_cool"] = json!(total / wait_total.max(1e-9));
     }
-    super::plan::write_plan(dir, s, &b)?;
-    write_thermal(dir, &b, &after)?;
+    super::plan::write_plan(dir, s, b)?;
+    write_thermal(dir, b, after)?;
     let dwelled = super::simulate::Dwelled {
-        before: &before,
+        before,
         arc_stops_lower_bound: bound.stops,
         confidence: sure,
     };
-    record(dir, s, &part, &b, &after, Some(dwelled))?;
+    record(dir, s, part, b, after, Some(dwelled))?;
     let mut csv = String::from("i,layer,t_s,dwell_s,reason,x_mm,y_mm,z_mm\n");
     for (i, &d) in plan.dwell_s().iter().enumerate() {
         if c.strikes(i) {
@@ -511,9 +383,6 @@ pub fn plan_and_dwell(
     }
     dir.write("dwells.csv", csv.as_bytes())?;
     dir.write_json("dwell.json", &summary)?;
-    if let Some(folder) = folder {
-        folder.close()?;
-    }
     Ok(format!(
         "{count} dwells, {total:.0} s in all, {} points slowed, closed by {}: {stops} arc stops; build {:.0} s → {:.0} s; {} points still at risk; search {:.1} {} builds of wall time",
         c.slowed(),

@@ -4,8 +4,8 @@ use crate::cli::Strategy;
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_part;
+use crate::pipeline::Build;
 use crate::pipeline::beads::{Bead, Beads};
-use crate::pipeline::{Build, plan};
 use crate::progress::Stage;
 use crate::scenario::Scenario;
 use bead_model::eq7;
@@ -25,7 +25,7 @@ const MAX_LISTED_VIOLATIONS: usize = 1000;
 /// too short) are input errors.
 pub fn build(s: &Scenario, part: &Part) -> Result<Build> {
     let _stage = Stage::start("planning the spiral");
-    Ok(Build::new(plan(part, &s.plan_params())?, s.params()))
+    Ok(crate::pipeline::build(part, &s.plan_params(), s.params())?)
 }
 
 pub fn run(scenario: &Path, out: &Path, strategy: Strategy) -> Result<String> {

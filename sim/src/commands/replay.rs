@@ -10,7 +10,7 @@ use crate::measured::{gcode, machine_log, probes, table, toolpath};
 use crate::output::RunDir;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{
-    self, Compared, Pass, Replay, in_celsius, overall, sampling_interval,
+    self, Compared, Pass, Replay, Replayed, in_celsius, overall, sampling_interval,
 };
 use crate::progress::Stage;
 use crate::scenario::Scenario;
@@ -58,27 +58,27 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let every_s = measured.as_ref().map_or(1.0, |m| sampling_interval(&m.t_s));
     let r = set_up(&s, every_s)?;
     let mut dir = RunDir::create(out)?;
-    let end_s = r.deps.last().map_or(0.0, |d| d.time);
-    let until_s = measured
-        .as_ref()
-        .and_then(|m| m.t_s.last().copied())
-        .map_or(end_s, |t| t.max(end_s));
     let print = checkpoint::of_run("replay", &s.to_json(), &r.deps);
     let mut folder = checkpoint::Folder::open(out, "replay", print, resume)?;
     let mut ck = Checkpoints::to(&mut folder);
-    let ((deps, result), wall_s) = {
+    let names = s.probes.as_ref().map(names).unwrap_or_default();
+    let replayed = {
         let _stage = Stage::start("heating the replayed toolpath");
-        ck.stage("heat", |ck, progress| {
-            r.run_kept(&r.values, until_s, ck, progress)
-        })?
+        r.replay(
+            measured.as_ref().map(|m| (names.as_slice(), m)),
+            s.window_s,
+            &mut ck,
+        )?
     };
+    let Replayed {
+        deps,
+        result,
+        wall_s,
+        window_s: window,
+        compared,
+        ..
+    } = replayed;
     let build_s = deps.last().map_or(0.0, |d| d.time);
-    let window = s.window_s.unwrap_or([0.0, until_s]);
-    let starts = replay::pass_starts(&deps);
-    let compared: Vec<Compared> = match (&s.probes, &measured) {
-        (Some(p), Some(m)) => replay::compare(&names(p), m, &result.probes, window, &starts),
-        _ => Vec::new(),
-    };
     dir.write("passes.csv", passes_csv(&compared).as_bytes())?;
     dir.write("probes.csv", probes_csv(&compared).as_bytes())?;
     let voxels = match result.cells {

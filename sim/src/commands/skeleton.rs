@@ -7,7 +7,7 @@ use crate::commands::plan::PATH_COLUMNS;
 use crate::error::Result;
 use crate::output::RunDir;
 use crate::part::load_skeleton;
-use crate::pipeline::skeleton::{DropHeat, LoopRun, heat, run_loop};
+use crate::pipeline::skeleton::{DropHeat, LoopRun, Skeletoned, run_loop, skeleton};
 use crate::scenario::Scenario;
 use planner::saam::slicer::Intersection;
 use serde_json::{Value, json};
@@ -19,19 +19,20 @@ pub fn run(scenario: &Path, out: &Path) -> Result<String> {
     let set = &s.skeleton;
     let sk = load_skeleton(&s.part, set)?;
     let mut dir = RunDir::create(out)?;
-    let (main, other) = {
-        let _stage = crate::progress::Stage::start("slicing the skeleton");
-        (
-            run_loop(&sk, set, &s.process, set.closed_loop),
-            run_loop(&sk, set, &s.process, !set.closed_loop),
-        )
-    };
-    let heats = if set.heat {
-        cost(scenario, &s, &main)?;
-        let _stage = crate::progress::Stage::start("heating drop by drop (voxels)");
-        Some(heat(&main, set, &s.process, &s.material, &s.thermal)?)
-    } else {
-        None
+    // The voxel run's estimate is checked before any of it runs.
+    if set.heat {
+        cost(
+            scenario,
+            &s,
+            &run_loop(&sk, set, &s.process, set.closed_loop),
+        )?;
+    }
+    let Skeletoned { main, other, heats } = {
+        let _stage = crate::progress::Stage::start(match set.heat {
+            true => "slicing the skeleton, heating drop by drop (voxels)",
+            false => "slicing the skeleton",
+        });
+        skeleton(&sk, set, &s.process, &s.material, &s.thermal)?
     };
     dir.write("drops.csv", drops_csv(&main, heats.as_deref()).as_bytes())?;
     dir.write("loops.csv", loops_csv(&main, &other).as_bytes())?;

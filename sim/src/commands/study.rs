@@ -18,7 +18,6 @@
 
 use crate::error::{Error, Result};
 use crate::output::{RunDir, write_atomic};
-use crate::pipeline::deposition::Cooling;
 use crate::scenario::Scenario;
 use rayon::prelude::*;
 use serde_json::Value;
@@ -308,12 +307,7 @@ fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
     let mut d = RunDir::create(dir)?;
     let b = super::plan::build(&s, &part)?;
     super::plan::write_plan(&mut d, &s, &b)?;
-    let cooling = if study.command == "dwell" {
-        b.plan_dwells()?.cooling
-    } else {
-        Cooling::none(b.plan.points.len())
-    };
-    let sim = b.simulate_cooled(&cooling, 0, Vec::new())?;
+    let (cooling, sim) = b.case(study.command == "dwell")?;
     let dwell = &cooling.dwell_s;
     super::simulate::write_thermal(&mut d, &b, &sim)?;
     let overrides: serde_json::Map<String, Value> = c

@@ -7,16 +7,21 @@
 //! computed there, once); it runs through either heat model ([`Build::simulate`]), is judged
 //! ([`Simulation::risks`]) and given dwells ([`Build::plan_dwells`]).
 //!
+//! Each command's work is one call here, the command reading the scenario before and writing
+//! the files after: `plan` [`build`]; `simulate` [`Build::simulate_kept`]; `dwell`
+//! [`dwelled::dwell`]; a study's case [`Build::case`]; `replay` [`replay::Replay::replay`];
+//! `calibrate` [`calibrate::calibrate`]; `follow` [`twin::follow::Follower`] fed row by row;
+//! `skeleton` [`skeleton::skeleton`]; `export` [`program::program`]. Long calls tell their
+//! progress through a [`Report`].
+//!
 //! ```
 //! use planner::mesh::{LowerLoop, Part};
+//! use planner::plan::PlanParams;
 //! use planner::shapes::Shape;
-//! use sim::pipeline::{Build, plan};
-//! use sim::scenario::Scenario;
+//! use sim::pipeline::{build, params::Params};
 //!
 //! // The documented defaults (scenarios/README.md), then parameters set in Rust.
-//! let s = Scenario::parse("[part]\nshape = \"disk\"\nradius_mm = 1.0\n", "defaults", ".".as_ref())
-//!     .unwrap();
-//! let (mut params, mut planning) = (s.params(), s.plan_params());
+//! let (mut params, mut planning) = (Params::default(), PlanParams::default());
 //! params.thermal.plate_m = [0.08, 0.08, 0.008];
 //! params.dwell.interpass_max_k = thermal::kelvin(250.0);
 //! planning.n_points = 40;
@@ -24,14 +29,21 @@
 //! // A closed dome R 20 mm from its mesh, planned with CTPP, heated, given its dwells.
 //! let mesh = Shape::Hemisphere { radius_mm: 20.0 }.mesh(2.5);
 //! let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
-//! let build = Build::new(plan(&part, &planning).unwrap(), params);
-//! let before = build.simulate(&[], 0).unwrap();
-//! let dwells = build.plan_dwells().unwrap();
-//! let after = build.simulate_cooled(&dwells.cooling, 0, vec![]).unwrap();
-//! assert!(before.first_risk(&build.criteria).is_some());
+//! let dome = build(&part, &planning, params).unwrap();
+//! let before = dome.simulate(&[], 0).unwrap();
+//! let dwells = dome.plan_dwells().unwrap();
+//! let after = dome.simulate_cooled(&dwells.cooling, 0, vec![]).unwrap();
+//! assert!(before.first_risk(&dome.criteria).is_some());
 //! // Every point is safe, the closing point's too: a closing strategy laid it.
-//! assert_eq!(after.first_risk(&build.criteria), None);
+//! assert_eq!(after.first_risk(&dome.criteria), None);
 //! println!("{:.0} s of dwell, closed by {}", dwells.cooling.total_dwell_s(), dwells.closing.name());
+//!
+//! // A value outside its documented range is refused before anything runs, named as a
+//! // scenario names it.
+//! let mut bad = Params::default();
+//! bad.process.efficiency = 1.5;
+//! let e = build(&part, &planning, bad).unwrap_err();
+//! assert_eq!(e.to_string(), "process.efficiency = 1.5; expected in (0, 1]");
 //! ```
 
 pub mod arc_stops;
@@ -43,8 +55,10 @@ pub mod confidence;
 pub mod cost;
 pub mod deposition;
 pub mod dwell;
+pub mod dwelled;
 pub mod pace;
 pub mod params;
+pub mod program;
 pub mod replay;
 pub mod risk;
 pub mod skeleton;
@@ -72,6 +86,9 @@ pub enum Error {
     /// The planner's verdict on the part (branching, too short, …): the user's input, with
     /// its evidence (which generator, which branch) for a caller to act on.
     Plan(planner::plan::PlanError),
+    /// A parameter outside its documented range ([`params::Params::check`]): the caller's
+    /// input, naming the key in the interface's units.
+    Invalid(params::Invalid),
     Thermal(ThermalError),
     /// Measurements that cannot serve as asked (no reading in a fit window, no metal laid):
     /// the user's input.
@@ -84,6 +101,7 @@ impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::Plan(e) => write!(f, "plan: {e}"),
+            Error::Invalid(e) => write!(f, "{e}"),
             Error::Thermal(e) => write!(f, "thermal: {e}"),
             Error::Measured(e) => f.write_str(e),
             Error::Lost(e) => write!(f, "{e} (a bug)"),
@@ -99,9 +117,33 @@ impl From<ThermalError> for Error {
     }
 }
 
+/// What an engine call tells of its progress (the engine prints nothing): each stage as it
+/// starts, and within a heat run the deposits laid of all. The commands draw it on the terminal
+/// (`crate::progress::Terminal`); [`Quiet`] hears nothing.
+pub trait Report {
+    /// A stage starts (the one before it has ended).
+    fn stage(&mut self, _what: &str) {}
+    /// `done` of `total` deposits laid in the stage's heat run.
+    fn laid(&mut self, _done: usize, _total: usize) {}
+}
+
+/// Progress nobody hears.
+pub struct Quiet;
+
+impl Report for Quiet {}
+
 /// Plan a part with CTPP.
 pub fn plan(part: &Part, params: &PlanParams) -> Result<Plan, Error> {
     planner::plan::plan(part, params).map_err(Error::Plan)
+}
+
+/// The plan command's work (and the start of simulate's and dwell's): `part` planned with
+/// CTPP ([`plan`]) and its build laid out ([`Build::new`]: beads, schedule, criteria).
+/// The parameters are checked first ([`Params::check`], [`params::planning`]).
+pub fn build(part: &Part, planning: &PlanParams, params: Params) -> Result<Build, Error> {
+    params.check().map_err(Error::Invalid)?;
+    params::planning(planning).map_err(Error::Invalid)?;
+    Ok(Build::new(plan(part, planning)?, params))
 }
 
 /// A planned build with its beads and schedule, ready to be heated, judged and given dwells.
@@ -272,6 +314,17 @@ impl Build {
             model: model.name(),
             wall_clock_s: wall_s,
         })
+    }
+
+    /// A study case's work: the build's dwells planned (`dwell`) or none, and the build
+    /// heated with them.
+    pub fn case(&self, dwell: bool) -> Result<(Cooling, Simulation), ThermalError> {
+        let cooling = match dwell {
+            true => self.plan_dwells()?.cooling,
+            false => Cooling::none(self.plan.points.len()),
+        };
+        let sim = self.simulate_cooled(&cooling, 0, Vec::new())?;
+        Ok((cooling, sim))
     }
 
     /// How each point burns at another pace or as a drop.

@@ -41,6 +41,31 @@ pub struct SkeletonSettings {
     pub max_drops: usize,
 }
 
+impl Default for SkeletonSettings {
+    /// The documented defaults (scenarios/README.md `[skeleton]`): the paper's slicer (δ 1.3 mm
+    /// for R_d 3 mm), 2 m/min, the virtual cell's closed loop on noisy drops (seed 1), waits of
+    /// 1 to 120 s, the heat run on.
+    fn default() -> Self {
+        SkeletonSettings {
+            radius_mm: 3.0,
+            radii_mm: Vec::new(),
+            priorities: Vec::new(),
+            slicer: planner::saam::SlicerSettings::default(),
+            wfs_m_min: 2.0,
+            closed_loop: true,
+            camera_noise_mm: 0.05,
+            drop_height_noise: 0.1,
+            bad_drop_probability: 0.02,
+            bad_drop_height: 0.3,
+            seed: 1,
+            min_wait_s: 1.0,
+            max_wait_s: 120.0,
+            heat: true,
+            max_drops: 20_000,
+        }
+    }
+}
+
 /// One drop as laid.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Drop {
@@ -195,6 +220,34 @@ pub fn schedule(run: &LoopRun, set: &SkeletonSettings, p: &Process) -> Vec<Depos
             }
         })
         .collect()
+}
+
+/// What the skeleton command finds ([`skeleton`]): the loop the settings ask for, the other
+/// on the same noisy drops, and the first's heat drop by drop where asked.
+#[derive(Debug, Clone)]
+pub struct Skeletoned {
+    /// The loop `closed_loop` names, and the other.
+    pub main: LoopRun,
+    pub other: LoopRun,
+    pub heats: Option<Vec<DropHeat>>,
+}
+
+/// The skeleton command's work: the slicer and the virtual cell closed loop and open loop on
+/// `sk`'s drops, and (`set.heat`) the main loop's heat drop by drop.
+pub fn skeleton(
+    sk: &Skeleton,
+    set: &SkeletonSettings,
+    p: &Process,
+    m: &Material,
+    t: &ThermalSettings,
+) -> Result<Skeletoned, ThermalError> {
+    let main = run_loop(sk, set, p, set.closed_loop);
+    let other = run_loop(sk, set, p, !set.closed_loop);
+    let heats = match set.heat {
+        true => Some(heat(&main, set, p, m, t)?),
+        false => None,
+    };
+    Ok(Skeletoned { main, other, heats })
 }
 
 /// Run the heat drop by drop on the voxel model: after each drop, cool until its metal and

@@ -181,13 +181,13 @@ impl Scenario {
         base: &Path,
     ) -> Result<Scenario> {
         let width = raw.process.bead_width_mm;
-        Ok(Scenario {
+        let s = Scenario {
             part: part_spec(&raw.part, c, base)?,
             process: process(&raw.process, c)?,
             material: material(&raw.material, c)?,
             thermal: thermal(&raw.thermal, width, c)?,
             dwell: dwell(&raw.dwell, width, c)?,
-            planner: planner(&raw.planner, c)?,
+            planner: planner(&raw.planner),
             bead: bead(&raw.bead, c)?,
             output: raw.output.clone(),
             skeleton: skeleton(&raw.skeleton, c)?,
@@ -195,7 +195,9 @@ impl Scenario {
             planned_path: raw.toolpath.as_ref().map(|t| resolve(base, &t.file)),
             calibration,
             raw,
-        })
+        };
+        crate::pipeline::params::planning(&s.plan_params()).map_err(|e| c.invalid(e))?;
+        Ok(s)
     }
 
     /// What the engine needs beyond the plan.
@@ -211,13 +213,15 @@ impl Scenario {
 
     /// What the CTPP planner needs.
     pub fn plan_params(&self) -> PlanParams {
-        let p = &self.process;
+        // The deposit window in the file's own mm (the process holds it in m: a round trip
+        // would put 1.8 mm at 1.8000000000000003).
+        let p = &self.raw.process;
         PlanParams {
             n_points: self.planner.n_points,
             gap_max_mm: self.planner.gap_max_mm,
-            deposit_mm: p.deposit_m * 1e3,
-            deposit_min_mm: p.deposit_min_m * 1e3,
-            deposit_max_mm: p.deposit_max_m * 1e3,
+            deposit_mm: p.deposit_mm,
+            deposit_min_mm: p.deposit_min_mm,
+            deposit_max_mm: p.deposit_max_mm,
             tolerance_mm: self.planner.deposit_tolerance_mm,
             nozzle: self.planner.nozzle,
             torch: self.planner.torch,
@@ -244,59 +248,13 @@ impl Scenario {
 }
 
 fn process(p: &RawProcess, c: &Checker) -> Result<Process> {
-    c.positive("process", "wire_diameter_mm", p.wire_diameter_mm, 5.0)?;
-    c.positive("process", "bead_width_mm", p.bead_width_mm, 50.0)?;
-    c.positive("process", "travel_speed_mm_s", p.travel_speed_mm_s, 1000.0)?;
-    c.positive("process", "deposit_mm", p.deposit_mm, 20.0)?;
-    c.positive("process", "deposit_min_mm", p.deposit_min_mm, 20.0)?;
-    c.positive("process", "deposit_max_mm", p.deposit_max_mm, 20.0)?;
-    c.at_most(
-        "process",
-        "deposit_min_mm",
-        p.deposit_min_mm,
-        "deposit_mm",
-        p.deposit_mm,
-    )?;
-    c.at_least(
-        "process",
-        "deposit_max_mm",
-        p.deposit_max_mm,
-        "deposit_mm",
-        p.deposit_mm,
-    )?;
-    c.positive("process", "wfs_min_m_min", p.wfs_min_m_min, 50.0)?;
-    c.positive("process", "wfs_max_m_min", p.wfs_max_m_min, 50.0)?;
-    c.at_least(
-        "process",
-        "wfs_max_m_min",
-        p.wfs_max_m_min,
-        "wfs_min_m_min",
-        p.wfs_min_m_min,
-    )?;
-    c.positive("process", "travel_min_mm_s", p.travel_min_mm_s, 1000.0)?;
-    c.positive("process", "travel_max_mm_s", p.travel_max_mm_s, 1000.0)?;
-    c.at_least(
-        "process",
-        "travel_max_mm_s",
-        p.travel_max_mm_s,
-        "travel_min_mm_s",
-        p.travel_min_mm_s,
-    )?;
-    c.positive("process", "arc_power_w", p.arc_power_w, 50_000.0)?;
-    c.range("process", "efficiency", p.efficiency, 0.0, 1.0, "in (0, 1]")?;
-    if p.efficiency == 0.0 {
-        return Err(c.fail("process", "efficiency", 0.0, "in (0, 1]"));
-    }
     let modulation = match p.modulation.as_str() {
         "wire_feed" => Modulation::WireFeed {
             travel: p.travel_speed_mm_s * MM,
         },
         "travel_speed" => {
             let wfs = match p.wfs_m_min {
-                Some(w) => {
-                    c.positive("process", "wfs_m_min", w, 50.0)?;
-                    w * M_MIN
-                }
+                Some(w) => w * M_MIN,
                 None => bead_model::eq7::wire_feed(
                     p.deposit_mm * MM,
                     p.wire_diameter_mm * MM,
@@ -361,7 +319,7 @@ fn process(p: &RawProcess, c: &Checker) -> Result<Process> {
             ));
         }
     };
-    Ok(Process {
+    let process = Process {
         modulation,
         power,
         section,
@@ -377,7 +335,9 @@ fn process(p: &RawProcess, c: &Checker) -> Result<Process> {
         travel_max_m_s: p.travel_max_mm_s * MM,
         arc_power_w: p.arc_power_w,
         efficiency: p.efficiency,
-    })
+    };
+    process.check().map_err(|e| c.invalid(e))?;
+    Ok(process)
 }
 
 /// The variable that names the folder of the measured builds.
@@ -430,30 +390,6 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
             ));
         }
     };
-    c.range(
-        "thermal",
-        "ambient_c",
-        t.ambient_c,
-        -50.0,
-        100.0,
-        "between -50 and 100",
-    )?;
-    c.range(
-        "thermal",
-        "convection_w_m2k",
-        t.convection_w_m2k,
-        0.0,
-        10_000.0,
-        "between 0 and 10000",
-    )?;
-    c.range(
-        "thermal",
-        "emissivity",
-        t.emissivity,
-        0.0,
-        1.0,
-        "between 0 and 1",
-    )?;
     let plate_fit = t.plate_mm.is_none();
     let plate_mm = t.plate_mm.unwrap_or(DEFAULT_PLATE_MM);
     let plate_disc = match (t.plate_shape.as_str(), model) {
@@ -484,32 +420,6 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
             ));
         }
     };
-    for (k, v) in plate_mm.iter().enumerate() {
-        if !(v.is_finite() && *v > 0.0 && *v <= 10_000.0) {
-            return Err(c.fail(
-                "thermal",
-                "plate_mm",
-                format!("{plate_mm:?}"),
-                &format!("three sizes in (0, 10000] mm (entry {k} is {v})"),
-            ));
-        }
-    }
-    c.range(
-        "thermal",
-        "lead_mm",
-        t.lead_mm,
-        0.0,
-        1000.0,
-        "between 0 and 1000",
-    )?;
-    c.range(
-        "thermal",
-        "table_contact_w_m2k",
-        t.table_contact_w_m2k,
-        0.0,
-        1e5,
-        "between 0 and 100000",
-    )?;
     if let Some(cell) = t.plate_cell_mm {
         c.range(
             "thermal",
@@ -519,41 +429,6 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
             100.0,
             "between 0.5 and 100",
         )?;
-    }
-    c.range(
-        "thermal",
-        "node_mm",
-        t.node_mm,
-        0.1,
-        50.0,
-        "between 0.1 and 50",
-    )?;
-    c.range(
-        "thermal",
-        "deposit_c",
-        t.deposit_c,
-        500.0,
-        3000.0,
-        "between 500 and 3000",
-    )?;
-    c.range(
-        "thermal",
-        "hot_threshold_c",
-        t.hot_threshold_c,
-        0.0,
-        3000.0,
-        "between 0 and 3000",
-    )?;
-    c.range(
-        "thermal",
-        "voxel_mm",
-        t.voxel_mm,
-        0.25,
-        20.0,
-        "between 0.25 and 20",
-    )?;
-    if let Some(f) = t.footprint_mm {
-        c.positive("thermal", "footprint_mm", f, 100.0)?;
     }
     let temperature_dependent = match t.properties.as_str() {
         "temperature" => true,
@@ -567,7 +442,7 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
             ));
         }
     };
-    Ok(ThermalSettings {
+    let settings = ThermalSettings {
         table_contact_w_m2k: t.table_contact_w_m2k,
         plate_cell_m: t
             .plate_cell_mm
@@ -587,7 +462,9 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         plate_fit,
         plate_disc,
         lead_m: t.lead_mm * MM,
-    })
+    };
+    settings.check().map_err(|e| c.invalid(e))?;
+    Ok(settings)
 }
 
 /// `[dwell] confidence`: the quantile, and the calibration's applied parameters as a normal
@@ -659,14 +536,6 @@ fn confidence(
 
 /// `[dwell]`; the closing zone defaults to three bead widths.
 fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings> {
-    c.range(
-        "dwell",
-        "interpass_max_c",
-        d.interpass_max_c,
-        20.0,
-        1500.0,
-        "between 20 and 1500",
-    )?;
     for (k, name) in d.criteria.iter().enumerate() {
         if !["interpass", "strength", "humping", "bond"].contains(&name.as_str()) {
             return Err(c.fail(
@@ -687,44 +556,8 @@ fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings>
             "\"revolution\" (dwells before a revolution's first preheat reading)",
         ));
     }
-    c.range(
-        "dwell",
-        "strength_loss_c",
-        d.strength_loss_c,
-        100.0,
-        1500.0,
-        "between 100 and 1500",
-    )?;
-    c.positive("dwell", "max_dwell_s", d.max_dwell_s, 86_400.0)?;
-    c.range(
-        "dwell",
-        "min_dwell_s",
-        d.min_dwell_s,
-        0.0,
-        d.max_dwell_s,
-        "between 0 and dwell.max_dwell_s",
-    )?;
-    c.range(
-        "dwell",
-        "margin_c",
-        d.margin_c,
-        0.0,
-        100.0,
-        "between 0 and 100",
-    )?;
-    c.range(
-        "dwell",
-        "count_weight_s",
-        d.count_weight_s,
-        0.0,
-        86_400.0,
-        "between 0 and 86400",
-    )?;
-    if let Some(z) = d.closing_zone_mm {
-        c.positive("dwell", "closing_zone_mm", z, 10_000.0)?;
-    }
     let on = |n: &str| d.criteria.iter().any(|x| x == n);
-    Ok(DwellSettings {
+    let settings = DwellSettings {
         interpass_max_k: d.interpass_max_c + KELVIN,
         interpass: on("interpass"),
         strength_loss_k: on("strength").then_some(d.strength_loss_c + KELVIN),
@@ -738,84 +571,13 @@ fn dwell(d: &RawDwell, bead_width_mm: f64, c: &Checker) -> Result<DwellSettings>
         closing_zone_mm: d
             .closing_zone_mm
             .unwrap_or(crate::pipeline::params::documented::CLOSING_ZONE_BEADS * bead_width_mm),
-    })
+    };
+    settings.check().map_err(|e| c.invalid(e))?;
+    Ok(settings)
 }
 
-fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
-    if !(8..=100_000).contains(&pl.n_points) {
-        return Err(c.fail("planner", "n_points", pl.n_points, "between 8 and 100000"));
-    }
-    c.positive("planner", "gap_max_mm", pl.gap_max_mm, 100.0)?;
-    c.range(
-        "planner",
-        "deposit_tolerance_mm",
-        pl.deposit_tolerance_mm,
-        0.0,
-        1.0,
-        "between 0 and 1",
-    )?;
-    c.positive("planner", "nozzle_radius_mm", pl.nozzle_radius_mm, 500.0)?;
-    c.range(
-        "planner",
-        "nozzle_standoff_mm",
-        pl.nozzle_standoff_mm,
-        0.0,
-        500.0,
-        "between 0 and 500",
-    )?;
-    c.positive("planner", "nozzle_length_mm", pl.nozzle_length_mm, 5000.0)?;
-    c.range(
-        "planner",
-        "nozzle_max_rotation_deg",
-        pl.nozzle_max_rotation_deg,
-        0.0,
-        90.0,
-        "between 0 and 90",
-    )?;
-    c.positive(
-        "planner",
-        "nozzle_rotation_rate_deg_mm",
-        pl.nozzle_rotation_rate_deg_mm,
-        360.0,
-    )?;
-    c.range(
-        "planner",
-        "deposit_tube_radius_mm",
-        pl.deposit_tube_radius_mm,
-        0.0,
-        50.0,
-        "between 0 and 50",
-    )?;
-    c.range(
-        "planner",
-        "arm_radius_mm",
-        pl.arm_radius_mm,
-        0.0,
-        1000.0,
-        "between 0 (no arm) and 1000",
-    )?;
-    c.range(
-        "planner",
-        "arm_from_mm",
-        pl.arm_from_mm,
-        0.0,
-        5000.0,
-        "between 0 and 5000",
-    )?;
-    c.positive("planner", "arm_length_mm", pl.arm_length_mm, 5000.0)?;
-    for (key, v) in [
-        ("torch_lead_deg", pl.torch_lead_deg),
-        ("torch_side_deg", pl.torch_side_deg),
-    ] {
-        c.range("planner", key, v, -60.0, 60.0, "between -60 and 60")?;
-    }
-    c.positive(
-        "planner",
-        "tool_rate_max_deg_mm",
-        pl.tool_rate_max_deg_mm,
-        360.0,
-    )?;
-    Ok(PlannerSettings {
+fn planner(pl: &RawPlanner) -> PlannerSettings {
+    PlannerSettings {
         n_points: pl.n_points,
         gap_max_mm: pl.gap_max_mm,
         deposit_tolerance_mm: pl.deposit_tolerance_mm,
@@ -826,7 +588,8 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
             max_rotation_deg: pl.nozzle_max_rotation_deg,
             rotation_rate_deg_mm: pl.nozzle_rotation_rate_deg_mm,
             tube_radius_mm: pl.deposit_tube_radius_mm,
-            arm: (pl.arm_radius_mm > 0.0).then_some(planner::collision::Arm {
+            // A radius of 0 is no arm; any other is checked ([`crate::pipeline::params::planning`]).
+            arm: (pl.arm_radius_mm != 0.0).then_some(planner::collision::Arm {
                 radius_mm: pl.arm_radius_mm,
                 from_mm: pl.arm_from_mm,
                 length_mm: pl.arm_length_mm,
@@ -837,22 +600,11 @@ fn planner(pl: &RawPlanner, c: &Checker) -> Result<PlannerSettings> {
             side_deg: pl.torch_side_deg,
             max_rate_deg_mm: pl.tool_rate_max_deg_mm,
         },
-    })
+    }
 }
 
 fn skeleton(k: &RawSkeleton, c: &Checker) -> Result<SkeletonSettings> {
     const S: &str = "skeleton";
-    c.positive(S, "radius_mm", k.radius_mm, 50.0)?;
-    for (i, r) in k.radii_mm.iter().enumerate() {
-        if !(r.is_finite() && *r > 0.0 && *r <= 50.0) {
-            return Err(c.fail(
-                S,
-                "radii_mm",
-                r,
-                &format!("a radius in (0, 50] mm for polyline {}", i + 1),
-            ));
-        }
-    }
     let priorities = k
         .priorities
         .iter()
@@ -867,77 +619,7 @@ fn skeleton(k: &RawSkeleton, c: &Checker) -> Result<SkeletonSettings> {
             })
         })
         .collect::<Result<Vec<_>>>()?;
-    c.positive(S, "increment_mm", k.increment_mm, 50.0)?;
-    for (key, v) in [
-        ("divergent_offset_deg", k.divergent_offset_deg),
-        ("convergent_offset_deg", k.convergent_offset_deg),
-    ] {
-        c.range(S, key, v, 0.0, 120.0, "between 0 and 120")?;
-    }
-    c.positive(S, "standoff_mm", k.standoff_mm, 100.0)?;
-    c.positive(S, "nozzle_radius_mm", k.nozzle_radius_mm, 100.0)?;
-    c.positive(S, "nozzle_length_mm", k.nozzle_length_mm, 1000.0)?;
-    c.range(
-        S,
-        "max_collision_standoff_mm",
-        k.max_collision_standoff_mm,
-        0.0,
-        200.0,
-        "between 0 and 200",
-    )?;
-    c.positive(S, "wfs_m_min", k.wfs_m_min, 50.0)?;
-    c.range(
-        S,
-        "camera_noise_mm",
-        k.camera_noise_mm,
-        0.0,
-        10.0,
-        "between 0 and 10",
-    )?;
-    c.range(
-        S,
-        "drop_height_noise",
-        k.drop_height_noise,
-        0.0,
-        0.5,
-        "between 0 and 0.5",
-    )?;
-    c.range(
-        S,
-        "bad_drop_probability",
-        k.bad_drop_probability,
-        0.0,
-        1.0,
-        "between 0 and 1",
-    )?;
-    c.range(
-        S,
-        "bad_drop_height",
-        k.bad_drop_height,
-        0.0,
-        1.0,
-        "between 0 and 1",
-    )?;
-    c.range(
-        S,
-        "min_wait_s",
-        k.min_wait_s,
-        0.0,
-        3600.0,
-        "between 0 and 3600",
-    )?;
-    c.range(
-        S,
-        "max_wait_s",
-        k.max_wait_s,
-        k.min_wait_s,
-        36000.0,
-        "at least min_wait_s and at most 36000",
-    )?;
-    if !(1..=1_000_000).contains(&k.max_drops) {
-        return Err(c.fail(S, "max_drops", k.max_drops, "between 1 and 1000000"));
-    }
-    Ok(SkeletonSettings {
+    let settings = SkeletonSettings {
         radius_mm: k.radius_mm,
         radii_mm: k.radii_mm.clone(),
         priorities,
@@ -961,29 +643,13 @@ fn skeleton(k: &RawSkeleton, c: &Checker) -> Result<SkeletonSettings> {
         max_wait_s: k.max_wait_s,
         heat: k.heat,
         max_drops: k.max_drops,
-    })
+    };
+    settings.check().map_err(|e| c.invalid(e))?;
+    Ok(settings)
 }
 
 fn bead(b: &RawBead, c: &Checker) -> Result<BeadSettings> {
-    c.positive("bead", "bond_max", b.bond_max, 100.0)?;
-    c.range(
-        "bead",
-        "hot_height_loss_per_k",
-        b.hot_height_loss_per_k,
-        0.0,
-        0.01,
-        "between 0 and 0.01 per K",
-    )?;
-    c.range(
-        "bead",
-        "hot_reference_c",
-        b.hot_reference_c,
-        -50.0,
-        1500.0,
-        "between -50 and 1500",
-    )?;
-    c.positive("bead", "stickout_mm", b.stickout_mm, 100.0)?;
-    Ok(BeadSettings {
+    let settings = BeadSettings {
         bond_max: b.bond_max,
         hot_metal: HotMetalLaw {
             reference_k: b.hot_reference_c + KELVIN,
@@ -991,7 +657,9 @@ fn bead(b: &RawBead, c: &Checker) -> Result<BeadSettings> {
             min_factor: crate::pipeline::params::documented::HOT_MIN_FACTOR,
         },
         stickout_m: b.stickout_mm * MM,
-    })
+    };
+    settings.check().map_err(|e| c.invalid(e))?;
+    Ok(settings)
 }
 
 fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {
@@ -1072,32 +740,21 @@ fn material(m: &RawMaterial, c: &Checker) -> Result<Material> {
         other => return Err(c.fail("material", "preset", format!("\"{other}\""), "\"G3Si\"")),
     };
     if let Some(v) = m.density_kg_m3 {
-        c.positive("material", "density_kg_m3", v, 30_000.0)?;
         mat.density_kg_m3 = v;
     }
     if let Some(v) = m.specific_heat_j_kgk {
-        c.positive("material", "specific_heat_j_kgk", v, 10_000.0)?;
         mat.specific_heat_j_kgk = v;
     }
     if let Some(v) = m.conductivity_w_mk {
-        c.positive("material", "conductivity_w_mk", v, 1_000.0)?;
         mat.conductivity_w_mk = v;
     }
     if let Some(v) = m.surface_tension_n_m {
-        c.positive("material", "surface_tension_n_m", v, 10.0)?;
         mat.surface_tension_n_m = v;
     }
     if let Some(v) = m.melting_c {
-        c.range(
-            "material",
-            "melting_c",
-            v,
-            100.0,
-            4000.0,
-            "between 100 and 4000",
-        )?;
         mat.melting_k = v + KELVIN;
     }
+    mat.check().map_err(|e| c.invalid(e))?;
     Ok(mat)
 }
 
@@ -1135,20 +792,9 @@ impl Checker<'_> {
         ))
     }
 
-    /// `key` = v must be at least `other` = bound of the same section.
-    fn at_least(&self, section: &str, key: &str, v: f64, other: &str, bound: f64) -> Result<()> {
-        match v >= bound {
-            true => Ok(()),
-            false => Err(self.fail(section, key, v, &format!("at least {other} ({bound})"))),
-        }
-    }
-
-    /// `key` = v must be at most `other` = bound of the same section.
-    fn at_most(&self, section: &str, key: &str, v: f64, other: &str, bound: f64) -> Result<()> {
-        match v <= bound {
-            true => Ok(()),
-            false => Err(self.fail(section, key, v, &format!("at most {other} ({bound})"))),
-        }
+    /// The engine's verdict on a value ([`crate::pipeline::params::Invalid`]), at its line.
+    fn invalid(&self, e: crate::pipeline::params::Invalid) -> Error {
+        self.fail(e.section, e.key, e.value, &e.expected)
     }
 
     fn positive(&self, section: &str, key: &str, v: f64, max: f64) -> Result<()> {

@@ -82,29 +82,32 @@ pub struct RawSkeleton {
 }
 
 impl Default for RawSkeleton {
+    /// The engine's (`SkeletonSettings::default`).
     fn default() -> Self {
+        let k = crate::pipeline::skeleton::SkeletonSettings::default();
+        let sl = k.slicer;
         Self {
-            radius_mm: 3.0,
-            radii_mm: Vec::new(),
+            radius_mm: k.radius_mm,
+            radii_mm: k.radii_mm,
             priorities: Vec::new(),
-            increment_mm: 1.3,
-            divergent_offset_deg: 90.0,
-            convergent_offset_deg: 70.0,
-            standoff_mm: 10.0,
-            nozzle_radius_mm: 12.0,
-            nozzle_length_mm: 60.0,
-            max_collision_standoff_mm: 30.0,
-            wfs_m_min: 2.0,
-            closed_loop: true,
-            camera_noise_mm: 0.05,
-            drop_height_noise: 0.1,
-            bad_drop_probability: 0.02,
-            bad_drop_height: 0.3,
-            seed: 1,
-            min_wait_s: 1.0,
-            max_wait_s: 120.0,
-            heat: true,
-            max_drops: 20_000,
+            increment_mm: sl.increment_mm,
+            divergent_offset_deg: sl.divergent_offset_deg,
+            convergent_offset_deg: sl.convergent_offset_deg,
+            standoff_mm: sl.standoff_mm,
+            nozzle_radius_mm: sl.nozzle_radius_mm,
+            nozzle_length_mm: sl.nozzle_length_mm,
+            max_collision_standoff_mm: sl.max_collision_standoff_mm,
+            wfs_m_min: k.wfs_m_min,
+            closed_loop: k.closed_loop,
+            camera_noise_mm: k.camera_noise_mm,
+            drop_height_noise: k.drop_height_noise,
+            bad_drop_probability: k.bad_drop_probability,
+            bad_drop_height: k.bad_drop_height,
+            seed: k.seed,
+            min_wait_s: k.min_wait_s,
+            max_wait_s: k.max_wait_s,
+            heat: k.heat,
+            max_drops: k.max_drops,
         }
     }
 }
@@ -205,18 +208,18 @@ pub struct RawProcess {
 impl Default for RawProcess {
     fn default() -> Self {
         Self {
-            wire_diameter_mm: 1.0,
+            wire_diameter_mm: d::WIRE_DIAMETER_MM,
             bead_width_mm: d::BEAD_WIDTH_MM,
-            travel_speed_mm_s: 10.0,
-            deposit_mm: 2.0,
-            deposit_min_mm: 1.8,
-            deposit_max_mm: 2.2,
-            wfs_min_m_min: 1.5,
-            wfs_max_m_min: 10.0,
-            travel_min_mm_s: 2.0,
-            travel_max_mm_s: 25.0,
-            arc_power_w: 2000.0,
-            efficiency: 0.85,
+            travel_speed_mm_s: d::TRAVEL_SPEED_MM_S,
+            deposit_mm: d::DEPOSIT_MM,
+            deposit_min_mm: d::DEPOSIT_MIN_MM,
+            deposit_max_mm: d::DEPOSIT_MAX_MM,
+            wfs_min_m_min: d::WFS_MIN_M_MIN,
+            wfs_max_m_min: d::WFS_MAX_M_MIN,
+            travel_min_mm_s: d::TRAVEL_MIN_MM_S,
+            travel_max_mm_s: d::TRAVEL_MAX_MM_S,
+            arc_power_w: d::ARC_POWER_W,
+            efficiency: d::EFFICIENCY,
             modulation: "wire_feed".into(),
             wfs_m_min: None,
             power_model: "fixed".into(),
@@ -406,23 +409,27 @@ pub struct RawPlanner {
 }
 
 impl Default for RawPlanner {
+    /// The planner's own defaults (`PlanParams::default`).
     fn default() -> Self {
+        let p = planner::plan::PlanParams::default();
+        let (n, t) = (p.nozzle, p.torch);
         Self {
-            n_points: 120,
-            gap_max_mm: 0.2,
-            deposit_tolerance_mm: 0.01,
-            nozzle_radius_mm: 10.0,
-            nozzle_standoff_mm: 12.0,
-            nozzle_length_mm: 80.0,
-            nozzle_max_rotation_deg: 30.0,
-            nozzle_rotation_rate_deg_mm: 2.0,
-            deposit_tube_radius_mm: 0.0,
+            n_points: p.n_points,
+            gap_max_mm: p.gap_max_mm,
+            deposit_tolerance_mm: p.tolerance_mm,
+            nozzle_radius_mm: n.radius_mm,
+            nozzle_standoff_mm: n.standoff_mm,
+            nozzle_length_mm: n.length_mm,
+            nozzle_max_rotation_deg: n.max_rotation_deg,
+            nozzle_rotation_rate_deg_mm: n.rotation_rate_deg_mm,
+            deposit_tube_radius_mm: n.tube_radius_mm,
+            // An arm is checked where its radius is given: from 92 mm along the tool, 200 long.
             arm_radius_mm: 0.0,
             arm_from_mm: 92.0,
             arm_length_mm: 200.0,
-            torch_lead_deg: 0.0,
-            torch_side_deg: 0.0,
-            tool_rate_max_deg_mm: 30.0,
+            torch_lead_deg: t.lead_deg,
+            torch_side_deg: t.side_deg,
+            tool_rate_max_deg_mm: t.max_rate_deg_mm,
         }
     }
 }

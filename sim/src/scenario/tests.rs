@@ -97,6 +97,12 @@ fn a_scenario_left_to_its_defaults_runs_at_the_engine_defaults() {
     assert_eq!(p.thermal, ThermalSettings::default());
     assert_eq!(p.dwell, DwellSettings::default());
     assert_eq!(p.bead, BeadSettings::default());
+    assert_eq!(p, crate::pipeline::params::Params::default());
+    assert_eq!(s.plan_params(), planner::plan::PlanParams::default());
+    assert_eq!(
+        s.skeleton,
+        crate::pipeline::skeleton::SkeletonSettings::default()
+    );
     // Another bead width moves what follows it, as the reader does.
     let s = Scenario::parse(
         "[part]\nshape = \"disk\"\nradius_mm = 1.0\n[process]\nbead_width_mm = 3.5\n",
@@ -106,4 +112,45 @@ fn a_scenario_left_to_its_defaults_runs_at_the_engine_defaults() {
     .unwrap();
     assert_eq!(s.params().thermal, ThermalSettings::for_bead(3.5));
     assert_eq!(s.params().dwell, DwellSettings::for_bead(3.5));
+}
+
+/// A value the engine refuses is named with the scenario's file, line and key, in the
+/// interface's units; the same value set in Rust is refused by the engine with the same words.
+#[test]
+fn the_engine_and_the_reader_refuse_a_value_alike() {
+    let text = "[part]\nshape = \"disk\"\nradius_mm = 1.0\n[thermal]\nvoxel_mm = 40.0\n";
+    let e = Scenario::parse(text, "s.toml", ".".as_ref()).unwrap_err();
+    assert_eq!(
+        e.message,
+        "s.toml line 5: thermal.voxel_mm = 40; expected between 0.25 and 20"
+    );
+    let mut p = crate::pipeline::params::Params::default();
+    p.thermal.voxel_m = 0.04;
+    let part = planner::mesh::Part::from_mesh(
+        planner::shapes::Shape::Hemisphere { radius_mm: 20.0 }.mesh(2.5),
+        planner::mesh::LowerLoop::default(),
+    )
+    .unwrap();
+    let planning = planner::plan::PlanParams::default();
+    match crate::pipeline::build(&part, &planning, p) {
+        Err(crate::pipeline::Error::Invalid(e)) => {
+            assert_eq!(
+                e.to_string(),
+                "thermal.voxel_mm = 40; expected between 0.25 and 20"
+            )
+        }
+        other => panic!(
+            "expected the voxel size refused, got {:?}",
+            other.map(|_| ())
+        ),
+    }
+    let planning = planner::plan::PlanParams {
+        gap_max_mm: -1.0,
+        ..planner::plan::PlanParams::default()
+    };
+    let e = crate::pipeline::build(&part, &planning, Default::default()).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "planner.gap_max_mm = -1; expected a number in (0, 100]"
+    );
 }

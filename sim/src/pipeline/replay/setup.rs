@@ -5,7 +5,7 @@
 //! with them. The measurements come in as a [`Series`] the commands read; nothing here touches
 //! a file.
 
-use super::compare::{Agreement, Pass, Sample, agreement, pair, passes};
+use super::compare::{Agreement, Pass, Sample, agreement, pair, pass_starts, passes};
 use super::schedule::{Laying, deposits};
 use crate::measured::probes::Series;
 use crate::measured::toolpath::Waypoint;
@@ -186,6 +186,56 @@ impl Replay {
         advance_kept(&mut run, &deps, until_s, ck, progress)?;
         let laid = run.laid();
         Ok((deps[..laid].to_vec(), run.finish()))
+    }
+}
+
+/// What a replay found ([`Replay::replay`]).
+#[derive(Debug, Clone)]
+pub struct Replayed {
+    /// The deposits laid, and what the model made of them.
+    pub deps: Vec<Deposit>,
+    pub result: RunResult,
+    /// Wall-clock seconds of the heat run.
+    pub wall_s: f64,
+    /// The run's end: the last deposit or the last reading, whichever is later, s.
+    pub until_s: f64,
+    /// The window the agreement is judged over, s.
+    pub window_s: [f64; 2],
+    /// Per probe, its readings against the model ([`compare`]); empty without readings.
+    pub compared: Vec<Compared>,
+}
+
+impl Replay {
+    /// The replay command's work: the path heated at the scenario's values until its last
+    /// deposit or the last reading, whichever is later, and each probe named in `measured`
+    /// (its names, the series in °C) held against its readings over `window_s` (absent: the
+    /// whole run). The heat run is kept under the stage `heat`, and taken from there.
+    pub fn replay(
+        &self,
+        measured: Option<(&[String], &Series)>,
+        window_s: Option<[f64; 2]>,
+        ck: &mut Checkpoints<'_>,
+    ) -> Result<Replayed, Error> {
+        let end_s = self.deps.last().map_or(0.0, |d| d.time);
+        let until_s = measured
+            .and_then(|(_, m)| m.t_s.last().copied())
+            .map_or(end_s, |t| t.max(end_s));
+        let ((deps, result), wall_s) = ck.stage("heat", |ck, progress| {
+            self.run_kept(&self.values, until_s, ck, progress)
+        })?;
+        let window_s = window_s.unwrap_or([0.0, until_s]);
+        let compared = match measured {
+            Some((names, m)) => compare(names, m, &result.probes, window_s, &pass_starts(&deps)),
+            None => Vec::new(),
+        };
+        Ok(Replayed {
+            deps,
+            result,
+            wall_s,
+            until_s,
+            window_s,
+            compared,
+        })
     }
 }
 

@@ -237,6 +237,31 @@ impl Learned {
     }
 }
 
+/// The learned line a forecast of probe `k` at horizon `h` (an index into `horizons_s`, or
+/// `horizons_s.len()` for the next layer's start) is made with, as an index into `lines`
+/// (per probe and horizon, then per horizon over all probes): the probe's own once it has been
+/// verified [`OWN_LINE_AFTER`] times; else the line all probes of this horizon taught together
+/// (learned as many times faster); and while that has no verification yet, the pooled line of
+/// the nearest shorter horizon that has one. A fixed horizon's first verification comes a whole
+/// horizon after the first forecast, and the model's skill at a shorter lead is the best
+/// evidence there is until then: on the GAMMA wall the 300 s forecasts made before any was
+/// verified were persistence, and the 300 s RMS over the build was 285 °C against the open
+/// loop's 119; with the 60 s line 126 °C (docs/PHYSICS.md "The live twin").
+fn line(lines: &[Learned], k: usize, h: usize, horizons_s: &[f64]) -> usize {
+    let n = horizons_s.len() + 1;
+    let pooled = |h: usize| lines.len() - n + h;
+    if lines[k * n + h].verified >= OWN_LINE_AFTER {
+        return k * n + h;
+    }
+    if lines[pooled(h)].verified > 0 || h >= horizons_s.len() {
+        return pooled(h);
+    }
+    (0..horizons_s.len())
+        .filter(|&g| horizons_s[g] < horizons_s[h] && lines[pooled(g)].verified > 0)
+        .max_by(|&a, &b| horizons_s[a].total_cmp(&horizons_s[b]))
+        .map_or(pooled(h), pooled)
+}
+
 /// A layer whose start the forecast puts at risk.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Alarm {
@@ -542,12 +567,8 @@ impl<'a> Follower<'a> {
                     Horizon::NextLayer => horizons,
                 };
                 let (class, pooled) = (k * (horizons + 1) + h, probes.len() * (horizons + 1) + h);
-                // A probe's own line once it has been verified often enough, else the line
-                // all probes of this horizon taught together (learned as many times faster).
-                let learned = match self.progress.learned[class].verified >= OWN_LINE_AFTER {
-                    true => &self.progress.learned[class],
-                    false => &self.progress.learned[pooled],
-                };
+                let lines = &self.progress.learned;
+                let learned = &lines[line(lines, k, h, &self.twin.settings.horizons_s)];
                 let persistence = self.progress.last_seen[k];
                 let misfit = persistence.map_or(0.0, |y0| then - C - y0);
                 let predicted = match persistence {
@@ -656,6 +677,29 @@ mod tests {
 
     /// Two tracks with travel between them are two layers, each from its first arc to its
     /// last deposit's end.
+    #[test]
+    fn a_horizon_not_yet_verified_borrows_the_nearest_shorter_ones_line() {
+        // Two probes, horizons 60, 300 and 120 s and the next layer: per probe four lines,
+        // then four pooled.
+        let horizons = [60.0, 300.0, 120.0];
+        let mut lines = vec![Learned::new(1.0); 3 * 4];
+        let pooled = |h: usize| 8 + h;
+        // Nothing verified: every forecast its own horizon's pooled line.
+        assert_eq!(line(&lines, 1, 1, &horizons), pooled(1));
+        lines[pooled(0)].verified = 1;
+        assert_eq!(line(&lines, 1, 1, &horizons), pooled(0));
+        lines[pooled(2)].verified = 3;
+        // 120 s is nearer 300 s than 60 s is; 60 s has nothing shorter to borrow.
+        assert_eq!(line(&lines, 1, 1, &horizons), pooled(2));
+        assert_eq!(line(&lines, 0, 2, &horizons), pooled(2));
+        // The next layer's start keeps its own pooled line (its lead varies).
+        assert_eq!(line(&lines, 0, 3, &horizons), pooled(3));
+        lines[pooled(1)].verified = 1;
+        assert_eq!(line(&lines, 1, 1, &horizons), pooled(1));
+        lines[4 + 1].verified = OWN_LINE_AFTER;
+        assert_eq!(line(&lines, 1, 1, &horizons), 4 + 1);
+    }
+
     #[test]
     fn tracks_after_travel_are_layers() {
         let d = |t: f64, x: f64, start: bool| Deposit {

@@ -1,13 +1,19 @@
 //! The engine's parameters: plain SI structs (geometry in mm) that a scenario file fills in, or
 //! a caller writes directly. The settings a user may leave out have their documented defaults
 //! here ([`documented`], in the interface's units, and `Default` on the settings in SI): the
-//! scenario reader takes its defaults from the same constants. The process and the material
-//! (the machine's and the metal's own numbers) have none: they come from the user.
+//! scenario reader takes its defaults from the same constants. The process's and the
+//! material's defaults are the documented G3Si CMT process and G3Si (a user's machine and metal
+//! will differ: set them). Each type checks itself against the documented ranges
+//! (`check`, [`Invalid`] naming the key in the interface's units); [`super::build`] checks
+//! before it plans.
 
 use bead_model::as_built::HotMetalLaw;
 use bead_model::heat_input::ArcPower;
 use bead_model::section::Section;
 use bead_model::window::{Modulation, Window};
+
+mod check;
+pub use check::{Invalid, planning};
 
 /// Everything the engine needs beyond the plan.
 #[derive(Debug, Clone, PartialEq)]
@@ -17,6 +23,19 @@ pub struct Params {
     pub thermal: ThermalSettings,
     pub dwell: DwellSettings,
     pub bead: BeadSettings,
+}
+
+impl Default for Params {
+    /// The documented defaults: the G3Si CMT process on G3Si, for its 5 mm bead.
+    fn default() -> Self {
+        Params {
+            process: Process::default(),
+            material: Material::default(),
+            thermal: ThermalSettings::default(),
+            dwell: DwellSettings::default(),
+            bead: BeadSettings::default(),
+        }
+    }
 }
 
 /// Deposition process, SI.
@@ -49,6 +68,13 @@ pub struct Material {
     pub conductivity_w_mk: f64,
     pub surface_tension_n_m: f64,
     pub melting_k: f64,
+}
+
+impl Default for Material {
+    /// G3Si ([`thermal::material::G3SI`]).
+    fn default() -> Self {
+        Material::preset(&thermal::material::G3SI)
+    }
 }
 
 impl Material {
@@ -107,6 +133,19 @@ pub mod documented {
     pub const HOT_REFERENCE_C: f64 = 20.0;
     pub const HOT_MIN_FACTOR: f64 = 0.5;
     pub const STICKOUT_MM: f64 = 15.0;
+    /// The process: a G3Si CMT process on a 1 mm wire, its wire feed modulated at a constant
+    /// travel speed (the CTPP choice), a fixed arc power, Eq.7's rectangular section.
+    pub const WIRE_DIAMETER_MM: f64 = 1.0;
+    pub const TRAVEL_SPEED_MM_S: f64 = 10.0;
+    pub const DEPOSIT_MM: f64 = 2.0;
+    pub const DEPOSIT_MIN_MM: f64 = 1.8;
+    pub const DEPOSIT_MAX_MM: f64 = 2.2;
+    pub const WFS_MIN_M_MIN: f64 = 1.5;
+    pub const WFS_MAX_M_MIN: f64 = 10.0;
+    pub const TRAVEL_MIN_MM_S: f64 = 2.0;
+    pub const TRAVEL_MAX_MM_S: f64 = 25.0;
+    pub const ARC_POWER_W: f64 = 2000.0;
+    pub const EFFICIENCY: f64 = 0.85;
 }
 
 const MM: f64 = 1e-3;
@@ -243,6 +282,35 @@ impl Default for BeadSettings {
                 min_factor: d::HOT_MIN_FACTOR,
             },
             stickout_m: d::STICKOUT_MM * MM,
+        }
+    }
+}
+
+impl Default for Process {
+    /// The documented process ([`documented`]).
+    fn default() -> Self {
+        use documented as d;
+        const M_MIN: f64 = 1.0 / 60.0;
+        Process {
+            modulation: Modulation::WireFeed {
+                travel: d::TRAVEL_SPEED_MM_S * MM,
+            },
+            power: ArcPower::Fixed {
+                watts: d::ARC_POWER_W,
+            },
+            section: Section::Rectangle,
+            wire_diameter_m: d::WIRE_DIAMETER_MM * MM,
+            bead_width_m: d::BEAD_WIDTH_MM * MM,
+            travel_speed_m_s: d::TRAVEL_SPEED_MM_S * MM,
+            deposit_m: d::DEPOSIT_MM * MM,
+            deposit_min_m: d::DEPOSIT_MIN_MM * MM,
+            deposit_max_m: d::DEPOSIT_MAX_MM * MM,
+            wfs_min_m_s: d::WFS_MIN_M_MIN * M_MIN,
+            wfs_max_m_s: d::WFS_MAX_M_MIN * M_MIN,
+            travel_min_m_s: d::TRAVEL_MIN_MM_S * MM,
+            travel_max_m_s: d::TRAVEL_MAX_MM_S * MM,
+            arc_power_w: d::ARC_POWER_W,
+            efficiency: d::EFFICIENCY,
         }
     }
 }

@@ -1,0 +1,308 @@
+//! The dwell command's work as one engine call ([`dwell`]): at a confidence the plan at the
+//! calibration's mean and its design point first (the build then stands at θ*,
+//! [`super::confidence`]); the build heated without dwells; the dwell search (within an
+//! arc-stop budget where there is one) against its yardstick, one dwell before each
+//! revolution ([`super::arc_stops::never_worse`]); the fewest arc stops any plan can make; the
+//! build heated with the plan's cooling; and what was asked beside: both plans under fresh
+//! parameter draws, the arc-stop front, the baselines. No files: the command writes them.
+
+use super::arc_stops::{self, Budgeted, Kept, Tried};
+use super::bound::StopsBound;
+use super::checkpoint::Checkpoints;
+use super::confidence::{self, Check, DesignPoint, Uncertainty};
+use super::deposition::Cooling;
+use super::dwell::wait_until_cool;
+use super::dwell::{DwellPlan, Uniform, dwell_points, first_risk, uniform_baseline};
+use super::risk::Risk;
+use super::{Build, Error, Report, Simulation};
+use thermal::ThermalError;
+
+/// What a dwell run does beyond the plan.
+#[derive(Debug, Clone, Default)]
+pub struct Options {
+    /// Plan at this quantile of a calibration's uncertainty (`[dwell] confidence`).
+    pub confidence: Option<confidence::Settings>,
+    /// The uniform dwell and wait-until-cool baselines.
+    pub baselines: bool,
+    /// A plan per weight of an arc stop (the arc-stop front).
+    pub pareto: bool,
+    /// Field frames kept of the run with the dwells (0: none).
+    pub frames: usize,
+    /// Points whose temperature the run with the dwells keeps at every step.
+    pub traces: Vec<usize>,
+}
+
+/// A dwell search's plan and what it was weighed against.
+#[derive(Debug, Clone)]
+pub struct Searched {
+    /// The plan kept: the search's, or the yardstick's where that is better.
+    pub plan: DwellPlan,
+    /// The arc-stop budget and what the search made of it, where there is one.
+    pub budget: Option<(usize, Budgeted)>,
+    /// Wall-clock seconds of the search.
+    pub search_s: f64,
+    /// The yardstick: one dwell before each revolution.
+    pub revolution: DwellPlan,
+    /// The search's own plan's arc stops and build time, s.
+    pub searched: usize,
+    pub searched_build_s: f64,
+    pub kept: Kept,
+}
+
+/// The plan at the calibration's mean and the design point of its cooling.
+#[derive(Debug, Clone)]
+pub struct AtMean {
+    pub build: Build,
+    pub plan: DwellPlan,
+    pub design: DesignPoint,
+    pub uncertainty: Uncertainty,
+}
+
+/// How sure a plan made at a confidence is: the plan at the mean, and both plans under the
+/// same fresh draws.
+#[derive(Debug, Clone)]
+pub struct Sure {
+    pub at_mean: AtMean,
+    /// The plan at θ* under the draws.
+    pub check: Check,
+    /// The plan at the mean under the same draws.
+    pub check_at_mean: Check,
+}
+
+/// The uniform dwell and wait-until-cool baselines.
+#[derive(Debug, Clone)]
+pub struct Baselines {
+    pub uniform: Uniform,
+    /// Dwell slots before `uniform.until`, and the plan's dwell there, s.
+    pub slots: usize,
+    pub planned_there_s: f64,
+    /// Wait-until-cool's dwell per point, s; its first risk, and every point's risk in a
+    /// fresh run with its waits.
+    pub waits: Vec<f64>,
+    pub wait_risk: Option<(usize, Risk)>,
+    pub wait_risks: Vec<Option<Risk>>,
+}
+
+/// Everything a dwell run found.
+#[derive(Debug, Clone)]
+pub struct Dwelled {
+    /// The build planned and judged (at θ* where planned at a confidence).
+    pub build: Build,
+    pub before: Simulation,
+    pub searched: Searched,
+    pub bound: StopsBound,
+    pub after: Simulation,
+    pub sure: Option<Sure>,
+    pub front: Option<Vec<Tried>>,
+    pub baselines: Option<Baselines>,
+}
+
+/// Plan the dwells of `b` as `o` asks. With checkpoints on, each stage is kept (the heat runs,
+/// the search between revolutions; the front and the baselines as each finishes) and taken
+/// from there when the run resumes.
+pub fn dwell(
+    b: Build,
+    o: &Options,
+    ck: &mut Checkpoints<'_>,
+    report: &mut dyn Report,
+) -> Result<Dwelled, Error> {
+    let at_mean = match &o.confidence {
+        Some(c) => Some(plan_at_mean(&b, c, report)?),
+        None => None,
+    };
+    let b = match &at_mean {
+        Some(m) => confidence::build_at(&b, &m.uncertainty, &m.design.x),
+        None => b,
+    };
+    report.stage("heating the build");
+    let before = b.simulate_kept(
+        &Cooling::default(),
+        0,
+        Vec::new(),
+        ck,
+        "before",
+        &mut |k, n| report.laid(k, n),
+    )?;
+    let searched = search(&b, ck, report)?;
+    let bound = match &searched.budget {
+        Some((_, r)) => r.bound.clone(),
+        None => {
+            report.stage("the fewest arc stops any plan can make");
+            ck.stage("bound", |_, _| b.arc_stops_lower_bound())?.0
+        }
+    };
+    report.stage("heating the build");
+    let after = b.simulate_kept(
+        &searched.plan.cooling,
+        o.frames,
+        o.traces.clone(),
+        ck,
+        "after",
+        &mut |k, n| report.laid(k, n),
+    )?;
+    let sure = match (at_mean, &o.confidence) {
+        (Some(m), Some(c)) => {
+            report.stage("the plans under fresh parameter draws");
+            let safe: Vec<bool> = after
+                .risks(&b.criteria)
+                .iter()
+                .map(|r| r.is_none())
+                .collect();
+            Some(check_both(&b, m, c, &searched.plan.cooling, &safe)?)
+        }
+        _ => None,
+    };
+    let front = match o.pareto {
+        true => {
+            report.stage("the arc-stop front: a dwell plan per weight of an arc stop");
+            let known = searched
+                .budget
+                .as_ref()
+                .map_or(&[][..], |(_, r)| r.tried.as_slice());
+            Some(ck.stage("front", |_, _| arc_stops::front(&b, known))?.0)
+        }
+        false => None,
+    };
+    let baselines = match o.baselines {
+        true => {
+            report.stage("baselines: uniform dwell, wait until cool");
+            Some(baselines(&b, &searched.plan, ck)?)
+        }
+        false => None,
+    };
+    Ok(Dwelled {
+        build: b,
+        before,
+        searched,
+        bound,
+        after,
+        sure,
+        front,
+        baselines,
+    })
+}
+
+/// The dwell search (within the arc-stop budget where there is one), the revolution-dwell
+/// yardstick, and the better of the two.
+fn search(b: &Build, ck: &mut Checkpoints<'_>, report: &mut dyn Report) -> Result<Searched, Error> {
+    report.stage("planning the dwells");
+    let (plan, budget, search_s) = match b.params.dwell.max_arc_stops {
+        Some(max) => {
+            let (r, wall_s) = ck.stage("search", |_, _| arc_stops::within_budget(b, max))?;
+            (r.plan.clone(), Some((max, r)), wall_s)
+        }
+        None => {
+            let weight = b.params.dwell.count_weight_s;
+            let (plan, wall_s) = ck.stage("search", |ck, progress| {
+                b.plan_dwells_kept(weight, ck, progress)
+            })?;
+            (plan, None, wall_s)
+        }
+    };
+    report.stage("the yardstick: one dwell before each revolution");
+    let revolution = ck
+        .stage("revolution_dwell", |_, _| b.revolution_dwells())?
+        .0;
+    let searched = arc_stops::arc_stops(&plan);
+    let searched_build_s = arc_stops::build_time_s(b, &plan);
+    let (plan, kept) = arc_stops::never_worse(b, plan, &revolution);
+    Ok(Searched {
+        plan,
+        budget,
+        search_s,
+        revolution,
+        searched,
+        searched_build_s,
+        kept,
+    })
+}
+
+fn plan_at_mean(
+    b: &Build,
+    c: &confidence::Settings,
+    report: &mut dyn Report,
+) -> Result<AtMean, Error> {
+    report.stage("the plan at the calibration's mean");
+    let plan = search(b, &mut Checkpoints::off(), &mut super::Quiet)?.plan;
+    report.stage("the design point: a run a standard deviation off per parameter");
+    let design = confidence::design_point(b, &c.uncertainty, c.confidence, &plan.cooling)?;
+    Ok(AtMean {
+        build: b.clone(),
+        plan,
+        design,
+        uncertainty: c.uncertainty.clone(),
+    })
+}
+
+/// The plan at θ* and the plan at the mean, each under the same fresh draws.
+fn check_both(
+    b: &Build,
+    m: AtMean,
+    c: &confidence::Settings,
+    cooling: &Cooling,
+    safe: &[bool],
+) -> Result<Sure, Error> {
+    let x = confidence::draws(&m.uncertainty, c.check_draws, c.seed);
+    let q = c.confidence;
+    let check = confidence::check(b, &m.uncertainty, cooling, safe, &x, q)?;
+    let own = m.build.simulate_cooled(&m.plan.cooling, 0, Vec::new())?;
+    let safe_mean: Vec<bool> = own
+        .risks(&m.build.criteria)
+        .iter()
+        .map(|r| r.is_none())
+        .collect();
+    let check_at_mean =
+        confidence::check(&m.build, &m.uncertainty, &m.plan.cooling, &safe_mean, &x, q)?;
+    Ok(Sure {
+        at_mean: m,
+        check,
+        check_at_mean,
+    })
+}
+
+/// The uniform dwell and wait-until-cool baselines of `b` against `plan`.
+fn baselines(b: &Build, plan: &DwellPlan, ck: &mut Checkpoints<'_>) -> Result<Baselines, Error> {
+    let deps = b.deposits();
+    let pl = &b.plan;
+    let model = b.heat_model(deps, Vec::new());
+    let pacing = b.pacing();
+    let search = b.search(&pacing);
+    let uniform = ck
+        .stage("uniform", |_, _| {
+            uniform_baseline(&search, pl, &model, deps)
+        })?
+        .0;
+    // Where the uniform policy stops working (a dome's closing zone), both are compared on the
+    // points before.
+    let until = uniform.until;
+    let slots = dwell_points(pl, deps, model.lead())
+        .into_iter()
+        .filter(|&i| i < until)
+        .count();
+    let planned_there_s: f64 = plan.dwell_s()[..until].iter().sum();
+    let waits = ck
+        .stage("wait_until_cool", |_, _| {
+            wait_until_cool(&search, pl, &model, deps)
+        })?
+        .0;
+    let n = deps.len();
+    let wait_risk = ck
+        .stage("wait_until_cool_risk", |_, _| {
+            first_risk(&search, &model, deps, &waits, n)
+        })?
+        .0;
+    // Where it fails, all of it: a fresh run with its waits, every point judged.
+    let wait_risks = ck
+        .stage("wait_until_cool_run", |_, _| {
+            Ok::<_, ThermalError>(b.simulate(&waits, 0)?.risks(&b.criteria))
+        })?
+        .0;
+    Ok(Baselines {
+        uniform,
+        slots,
+        planned_there_s,
+        waits,
+        wait_risk,
+        wait_risks,
+    })
+}
