@@ -4,31 +4,14 @@
 //!
 //! Run: `cargo bench -p planner --bench plan`
 
-use planner::collision::Nozzle;
 use planner::mesh::{LowerLoop, Part};
 use planner::plan::{PlanParams, plan};
 use planner::shapes::Shape;
 use std::time::Instant;
 
 fn main() {
-    let params = PlanParams {
-        n_points: 120,
-        gap_max_mm: 0.2,
-        deposit_mm: 2.0,
-        deposit_min_mm: 1.8,
-        deposit_max_mm: 2.2,
-        tolerance_mm: 0.01,
-        nozzle: Nozzle {
-            radius_mm: 10.0,
-            standoff_mm: 12.0,
-            length_mm: 80.0,
-            max_rotation_deg: 30.0,
-            rotation_rate_deg_mm: 2.0,
-            tube_radius_mm: 0.0,
-            arm: None,
-        },
-        torch: planner::frame::Torch::default(),
-    };
+    // The documented defaults.
+    let params = PlanParams::default();
     let cases = [
         (
             "tilted cylinder R80 (open)",

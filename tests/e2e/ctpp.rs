@@ -6,24 +6,11 @@ use planner::plan::{Plan, PlanParams, plan, range};
 use planner::shapes::Shape;
 use planner::spiral::SeamReason;
 
+/// The documented planner defaults at `n_points` a generator.
 pub fn params(n_points: usize) -> PlanParams {
     PlanParams {
         n_points,
-        gap_max_mm: 0.2,
-        deposit_mm: 2.0,
-        deposit_min_mm: 1.8,
-        deposit_max_mm: 2.2,
-        tolerance_mm: 0.01,
-        nozzle: planner::collision::Nozzle {
-            radius_mm: 10.0,
-            standoff_mm: 12.0,
-            length_mm: 80.0,
-            max_rotation_deg: 30.0,
-            rotation_rate_deg_mm: 2.0,
-            tube_radius_mm: 0.0,
-            arm: None,
-        },
-        torch: planner::frame::Torch::default(),
+        ..PlanParams::default()
     }
 }
 

@@ -42,7 +42,7 @@ fn the_package_passes_its_tests() {
     let said = String::from_utf8_lossy(&out.stderr);
     eprintln!("{said}");
     assert!(out.status.success(), "the package's tests failed:\n{said}");
-    assert!(said.contains("Ran 6 tests"), "{said}");
+    assert!(said.contains("Ran 7 tests"), "{said}");
 
     // The notebooks: the GAMMA wall calibrated (it reads the measured builds) and a dome
     // dwelled. Each asserts what it shows; a failing cell fails run.py.

@@ -509,11 +509,14 @@ impl ReplayScenario {
             lines: true,
         };
         let p = &raw.process;
-        c.positive("process", "power_w", p.power_w, 1e5)?;
-        c.positive("process", "efficiency", p.efficiency, 1.0)?;
-        c.positive("process", "bead_width_mm", p.bead_width_mm, 100.0)?;
-        c.positive("process", "layer_height_mm", p.layer_height_mm, 50.0)?;
-        c.positive("toolpath", "deposit_mm", raw.toolpath.deposit_mm, 100.0)?;
+        let laying = Laying {
+            power_w: p.power_w,
+            efficiency: p.efficiency,
+            width_m: p.bead_width_mm * 1e-3,
+            height_m: p.layer_height_mm * 1e-3,
+            deposit_m: raw.toolpath.deposit_mm * 1e-3,
+        };
+        laying.check().map_err(|e| c.invalid(e))?;
         c.range(
             "toolpath",
             "z_offset_mm",
@@ -562,13 +565,7 @@ impl ReplayScenario {
                     ));
                 }
             },
-            laying: Laying {
-                power_w: p.power_w,
-                efficiency: p.efficiency,
-                width_m: p.bead_width_mm * 1e-3,
-                height_m: p.layer_height_mm * 1e-3,
-                deposit_m: raw.toolpath.deposit_mm * 1e-3,
-            },
+            laying,
             source: source(p, &c)?,
             material: tables(&raw.material, "material", &c, base)?,
             plate_material: match &raw.plate_material {
@@ -826,65 +823,28 @@ impl Default for Live {
 
 /// `[live]`, each key checked.
 fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Result<Live> {
-    if !(2..=256).contains(&l.ensemble) {
-        return Err(c.fail("live", "ensemble", l.ensemble, "2 to 256 members"));
-    }
-    c.positive("live", "reading_sd_c", l.reading_sd_c, 1000.0)?;
-    c.positive("live", "localisation_mm", l.localisation_mm, 10_000.0)?;
-    c.range(
-        "live",
-        "relaxation",
-        l.relaxation,
-        0.0,
-        1.0,
-        "a share in [0, 1]",
-    )?;
-    c.positive("live", "assimilate_every_s", l.assimilate_every_s, 1e5)?;
-    c.positive("live", "forecast_every_s", l.forecast_every_s, 1e6)?;
-    c.positive("live", "parameters_every_s", l.parameters_every_s, 1e6)?;
     c.positive("live", "stall_s", l.stall_s, 1e6)?;
-    let good = !l.forecast_horizons_s.is_empty()
-        && l.forecast_horizons_s.len() <= 16
-        && l.forecast_horizons_s
-            .iter()
-            .all(|h| h.is_finite() && *h > 0.0 && *h <= 1e5);
-    if !good {
-        return Err(c.fail(
-            "live",
-            "forecast_horizons_s",
-            format!("{:?}", l.forecast_horizons_s),
-            "1 to 16 horizons, each in (0, 1e5] s",
-        ));
-    }
-    if let Some(v) = l.interpass_max_c {
-        c.range(
-            "live",
-            "interpass_max_c",
-            v,
-            -200.0,
-            3000.0,
-            "a temperature in °C",
-        )?;
-    }
     if let Some(v) = l.voxel_mm {
         c.positive("live", "voxel_mm", v, 100.0)?;
     }
     let mut horizons_s = l.forecast_horizons_s.clone();
     horizons_s.sort_by(f64::total_cmp);
     horizons_s.dedup();
+    let twin = crate::pipeline::twin::Settings {
+        ensemble: l.ensemble,
+        reading_sd_k: l.reading_sd_c,
+        localisation_m: l.localisation_mm * 1e-3,
+        relaxation: l.relaxation,
+        assimilate_every_s: l.assimilate_every_s,
+        parameters_every_s: l.parameters_every_s,
+        forecast_every_s: l.forecast_every_s,
+        horizons_s,
+        interpass_max_k: l.interpass_max_c.map(|v| v + KELVIN),
+        seed: l.seed,
+    };
+    twin.check().map_err(|e| c.invalid(e))?;
     Ok(Live {
-        twin: crate::pipeline::twin::Settings {
-            ensemble: l.ensemble,
-            reading_sd_k: l.reading_sd_c,
-            localisation_m: l.localisation_mm * 1e-3,
-            relaxation: l.relaxation,
-            assimilate_every_s: l.assimilate_every_s,
-            parameters_every_s: l.parameters_every_s,
-            forecast_every_s: l.forecast_every_s,
-            horizons_s,
-            interpass_max_k: l.interpass_max_c.map(|v| v + KELVIN),
-            seed: l.seed,
-        },
+        twin,
         stall_s: l.stall_s,
         voxel_m: l.voxel_mm.map(|v| v * 1e-3),
         prior: l.prior.as_ref().map(|p| super::resolve(base, p)),

@@ -528,6 +528,60 @@ impl crate::pipeline::skeleton::SkeletonSettings {
     }
 }
 
+impl crate::pipeline::replay::Laying {
+    /// A replayed toolpath's process and deposit within their documented ranges.
+    pub fn check(&self) -> Result<(), Invalid> {
+        use Unit::{Milli, Same};
+        let r = Rules("process");
+        r.positive("power_w", self.power_w, 1e5, Same)?;
+        r.positive("efficiency", self.efficiency, 1.0, Same)?;
+        r.positive("bead_width_mm", self.width_m, 100.0, Milli)?;
+        r.positive("layer_height_mm", self.height_m, 50.0, Milli)?;
+        Rules("toolpath").positive("deposit_mm", self.deposit_m, 100.0, Milli)
+    }
+}
+
+impl crate::pipeline::twin::Settings {
+    /// The twin's filter and forecasts within their documented ranges (`[live]`).
+    pub fn check(&self) -> Result<(), Invalid> {
+        use Unit::{Celsius, Milli, Same};
+        let r = Rules("live");
+        if !(2..=256).contains(&self.ensemble) {
+            return Err(r.fail("ensemble", self.ensemble, "2 to 256 members".into()));
+        }
+        r.positive("reading_sd_c", self.reading_sd_k, 1000.0, Same)?;
+        r.positive("localisation_mm", self.localisation_m, 10_000.0, Milli)?;
+        r.range(
+            "relaxation",
+            self.relaxation,
+            (0.0, 1.0),
+            "a share in [0, 1]",
+            Same,
+        )?;
+        r.positive("assimilate_every_s", self.assimilate_every_s, 1e5, Same)?;
+        r.positive("forecast_every_s", self.forecast_every_s, 1e6, Same)?;
+        r.positive("parameters_every_s", self.parameters_every_s, 1e6, Same)?;
+        let h = &self.horizons_s;
+        let good = !h.is_empty()
+            && h.len() <= 16
+            && h.iter().all(|h| h.is_finite() && *h > 0.0 && *h <= 1e5);
+        if !good {
+            let expected = "1 to 16 horizons, each in (0, 1e5] s".into();
+            return Err(r.fail("forecast_horizons_s", format!("{h:?}"), expected));
+        }
+        match self.interpass_max_k {
+            Some(k) => r.range(
+                "interpass_max_c",
+                k,
+                (-200.0, 3000.0),
+                "a temperature in °C",
+                Celsius,
+            ),
+            None => Ok(()),
+        }
+    }
+}
+
 impl Params {
     /// Every section checked ([`Process::check`] and the others), in the order a scenario
     /// file lists them.
