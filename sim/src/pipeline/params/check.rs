@@ -48,7 +48,8 @@ impl Unit {
         match self {
             Unit::Same => v,
             Unit::Milli => v * 1e-3,
-            Unit::PerMinute => v / 60.0,
+            // As the reader converts (× 1/60, not ÷ 60: the last bit differs for some values).
+            Unit::PerMinute => v * (1.0 / 60.0),
             Unit::Celsius => v + KELVIN,
         }
     }
@@ -583,8 +584,8 @@ impl crate::pipeline::twin::Settings {
 }
 
 impl Params {
-    /// Every section checked ([`Process::check`] and the others), in the order a scenario
-    /// file lists them.
+    /// Every section checked ([`Process::check`] and the others): the process, the thermal,
+    /// dwell and bead settings, the material.
     pub fn check(&self) -> Result<(), Invalid> {
         self.process.check()?;
         self.thermal.check()?;

@@ -245,8 +245,8 @@ impl Learned {
 /// the nearest shorter horizon that has one. A fixed horizon's first verification comes a whole
 /// horizon after the first forecast, and the model's skill at a shorter lead is the best
 /// evidence there is until then: on the GAMMA wall the 300 s forecasts made before any was
-/// verified were persistence, and the 300 s RMS over the build was 285 °C against the open
-/// loop's 119; with the 60 s line 126 °C (docs/PHYSICS.md "The live twin").
+/// verified were persistence, and the 300 s RMS over the build was 292 °C against the open
+/// loop's 120; with the 60 s line 125 °C (docs/PHYSICS.md "The live twin").
 fn line(lines: &[Learned], k: usize, h: usize, horizons_s: &[f64]) -> usize {
     let n = horizons_s.len() + 1;
     let pooled = |h: usize| lines.len() - n + h;
@@ -577,6 +577,12 @@ impl<'a> Follower<'a> {
                 };
                 let scale = ((target - at) / 60.0).max(1e-3).sqrt();
                 let (below, above) = learned.band(sd, scale, self.twin.innovation_var());
+                // The band ends no lower than a reading can lie: the part does not cool below
+                // its surroundings, and readings further below are dropped as not of the part
+                // (`replay::BELOW_AMBIENT_K`). A wide band at a long lead reached -345 °C on
+                // the GAMMA wall; no kept reading lies below the floor, so the band holds the
+                // same readings.
+                let floor = self.twin.r.values.thermal.ambient_k - replay::BELOW_AMBIENT_K;
                 self.progress.pending.push(self.progress.forecasts.len());
                 self.progress.forecasts.push(Forecast {
                     made_at_s: at,
@@ -584,7 +590,7 @@ impl<'a> Follower<'a> {
                     probe: k,
                     horizon: *horizon,
                     predicted_c: predicted - C,
-                    p05_c: predicted - below - C,
+                    p05_c: (predicted - below).max(floor) - C,
                     p95_c: predicted + above - C,
                     open_loop_c: open - C,
                     persistence_c: persistence,
@@ -675,8 +681,8 @@ mod tests {
         assert!(wild.theta[0] <= W_MAX && wild.theta[1] <= W_MAX);
     }
 
-    /// Two tracks with travel between them are two layers, each from its first arc to its
-    /// last deposit's end.
+    /// A horizon whose shared line has no verification yet takes the nearest shorter
+    /// horizon's; the next layer's start, whose lead varies, keeps its own.
     #[test]
     fn a_horizon_not_yet_verified_borrows_the_nearest_shorter_ones_line() {
         // Two probes, horizons 60, 300 and 120 s and the next layer: per probe four lines,
@@ -700,6 +706,8 @@ mod tests {
         assert_eq!(line(&lines, 1, 1, &horizons), 4 + 1);
     }
 
+    /// Two tracks with travel between them are two layers, each from its first arc to its
+    /// last deposit's end.
     #[test]
     fn tracks_after_travel_are_layers() {
         let d = |t: f64, x: f64, start: bool| Deposit {
