@@ -256,6 +256,77 @@ fn small_wall(dir: &Path, live: &str) -> (PathBuf, Vec<String>) {
     (dir.join("wall.toml"), lines)
 }
 
+/// A spiral laid in one pass (a helix R 15 mm, three revolutions at 8 mm/s, no travel and no
+/// pause) is followed revolution by revolution, as `dwell` judges it: a next-layer forecast and
+/// a judgement at the end of each revolution (the helix's last point starts a fourth), each
+/// revolution by its points' preheats as the torch reaches them; with a strength limit below the
+/// interpass one, the alarms name `strength` and its limit, and advise a dwell on the 5 s grid.
+#[test]
+fn a_spiral_is_followed_and_judged_revolution_by_revolution() {
+    let dir = scratch("follow_spiral");
+    let (r, per_rev, speed) = (15.0f64, 36, 8.0);
+    let step = std::f64::consts::TAU * r / per_rev as f64;
+    let mut path = String::from("t_s,x_mm,y_mm,z_mm,on\n");
+    for k in 0..=3 * per_rev {
+        let a = std::f64::consts::TAU * k as f64 / per_rev as f64;
+        let z = 1.5 + 1.5 * k as f64 / per_rev as f64;
+        let t = k as f64 * step / speed;
+        let on = u8::from(k > 0);
+        path += &format!("{t:.3},{:.3},{:.3},{z:.3},{on}\n", r * a.cos(), r * a.sin());
+    }
+    std::fs::write(dir.join("path.csv"), path).unwrap();
+    let scenario = "[toolpath]\nfile = \"path.csv\"\ndeposit_mm = 2.0\n\
+         [process]\npower_w = 1500.0\nefficiency = 0.8\nbead_width_mm = 4.0\nlayer_height_mm = 1.5\n\
+         [material]\npreset = \"G3Si\"\n\
+         [thermal]\nmodel = \"voxel\"\nvoxel_mm = 2.0\nplate_mm = [60.0, 60.0, 6.0]\n\
+         [probes]\nfile = \"log.csv\"\nunit = \"C\"\npoints = [\n\
+         { name = \"a\", column = 1, x_mm = 22.0, y_mm = 0.0, z_mm = 0.0 },\n\
+         { name = \"b\", column = 2, x_mm = -22.0, y_mm = 0.0, z_mm = 0.0 },\n]\n\
+         [calibrate]\nparameters = [{ name = \"efficiency\", low = 0.5, high = 0.95 }]\n\
+         [live]\nensemble = 4\nforecast_every_s = 10.0\nforecast_horizons_s = [10.0]\n\
+         interpass_max_c = 900.0\nstrength_loss_c = 180.0\n";
+    std::fs::write(dir.join("spiral.toml"), scenario).unwrap();
+    let mut lines = vec!["t_s,a_c,b_c".to_string()];
+    for j in 0..=120 {
+        let t = 0.5 * j as f64;
+        let v = 25.0 + 80.0 * (1.0 - (-t / 40.0).exp());
+        lines.push(format!("{t},{v:.2},{v:.2}"));
+    }
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let out = dir.join("out");
+    let (ok, text) = finish(
+        follow(&dir.join("spiral.toml"), &out, &["--until-idle-s", "2"]),
+        Duration::from_secs(300),
+    );
+    assert!(ok, "{text}");
+    let revolution_s = std::f64::consts::TAU * r / speed;
+    let (header, forecasts) = crate::read_csv(&out.join("forecasts.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let mut next: Vec<f64> = forecasts
+        .iter()
+        .filter(|f| f[col("horizon")] == "next_layer" && f[col("probe")] == "a")
+        .map(|f| f[col("target_t_s")].parse().unwrap())
+        .collect();
+    next.dedup();
+    // Each revolution's start, where the layer's first deposit strikes (within a deposit).
+    let starts: Vec<f64> = next.iter().copied().filter(|&t| t > 1.0).collect();
+    let near = |t: f64, k: f64| (t - k * revolution_s).abs() < 1.0;
+    assert!(starts.iter().any(|&t| near(t, 1.0)), "{next:?}");
+    assert!(starts.iter().any(|&t| near(t, 2.0)), "{next:?}");
+    let (header, alarms) = crate::read_csv(&out.join("alarms.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let layers: Vec<&str> = alarms.iter().map(|a| a[col("layer")].as_str()).collect();
+    assert!(layers.starts_with(&["2", "3"]), "{alarms:?}");
+    for a in &alarms {
+        let criterion = (a[col("criterion")].as_str(), a[col("limit_c")].as_str());
+        assert_eq!(criterion, ("strength", "180.00"));
+        assert_eq!(a[col("programmed_dwell_s")], "0.0", "{a:?}");
+        let advised: f64 = a[col("advised_dwell_s")].parse().unwrap();
+        assert!(advised > 0.0 && advised % 5.0 == 0.0, "{a:?}");
+    }
+    assert!(text.contains("strength limit 180 °C"), "{text}");
+}
+
 /// A garbage line and a reading that goes back in time are named, counted and skipped; the
 /// rest of the build is followed.
 #[test]

@@ -52,6 +52,7 @@ fn main() {
         probes: vec![],
         probe_every: 0.0,
         source: thermal::voxel::HeatSource::DoubleEllipsoid,
+        coarse_plate: false,
     };
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()

@@ -14,7 +14,9 @@ fn schedule() -> Vec<Deposit> {
     helix(0.025, 40, 2, 2e-3, 5e-3, 10e-3, 1700.0)
 }
 
-fn models(material: Material) -> [HeatModel; 2] {
+/// The thin wall, the voxel model, and the voxel model on a coarsened plate (its top coarse
+/// away from the helix: 8 mm is four cells).
+fn models(material: Material) -> [HeatModel; 3] {
     let surroundings = Surroundings {
         ambient_k: 293.15,
         convection_w_m2k: 15.0,
@@ -28,6 +30,23 @@ fn models(material: Material) -> [HeatModel; 2] {
         layers: 3,
         disc: false,
         material: None,
+    };
+    let voxel = VoxelSettings {
+        material: material.clone(),
+        surroundings,
+        plate: plate.clone(),
+        size: 2e-3,
+        deposit_temperature: 1823.15,
+        lead: 10e-3,
+        hot_threshold: 873.15,
+        snapshot_times: vec![5.0, 25.0],
+        traces: vec![],
+        trace_hottest: false,
+        courant: 0.9,
+        probes: vec![],
+        probe_every: 0.0,
+        source: thermal::voxel::HeatSource::DoubleEllipsoid,
+        coarse_plate: false,
     };
     [
         HeatModel::ThinWall(WallSettings {
@@ -46,21 +65,10 @@ fn models(material: Material) -> [HeatModel; 2] {
             traces: vec![],
             trace_hottest: false,
         }),
+        HeatModel::Voxel(voxel.clone()),
         HeatModel::Voxel(VoxelSettings {
-            material,
-            surroundings,
-            plate,
-            size: 2e-3,
-            deposit_temperature: 1823.15,
-            lead: 10e-3,
-            hot_threshold: 873.15,
-            snapshot_times: vec![5.0, 25.0],
-            traces: vec![],
-            trace_hottest: false,
-            courant: 0.9,
-            probes: vec![],
-            probe_every: 0.0,
-            source: thermal::voxel::HeatSource::DoubleEllipsoid,
+            coarse_plate: true,
+            ..voxel
         }),
     ]
 }
@@ -346,7 +354,7 @@ fn a_numerical_failure_names_its_time_place_and_value() {
 fn a_deposit_off_the_plate_is_bad_input() {
     let mut deps = schedule();
     deps[0].position[0] = 0.5;
-    let [wall, _] = models(Material::g3si());
+    let [wall, ..] = models(Material::g3si());
     let err = wall.start(&deps).err().expect("outside the plate");
     assert!(
         matches!(err, ThermalError::OutsidePlate { deposit: 0, .. }),
@@ -496,7 +504,7 @@ fn a_probe_reads_once_metal_is_there() {
 #[test]
 fn a_disc_plate_is_round_on_voxels_and_refused_by_the_thin_wall() {
     let deps = schedule();
-    let [mut wall, mut voxel] = models(Material::g3si());
+    let [mut wall, mut voxel, _] = models(Material::g3si());
     let cells = |m: &HeatModel| match m.simulate(&deps).unwrap().cells {
         thermal::Cells::Voxel { voxels, .. } => voxels,
         _ => unreachable!(),
@@ -528,7 +536,7 @@ fn a_disc_plate_is_round_on_voxels_and_refused_by_the_thin_wall() {
 #[test]
 fn a_plate_of_its_own_material_on_voxels_and_refused_by_the_thin_wall() {
     let deps = schedule();
-    let [mut wall, mut voxel] = models(Material::g3si());
+    let [mut wall, mut voxel, _] = models(Material::g3si());
     let same = voxel.simulate(&deps).unwrap();
     let copper = Material::constant(8960.0, 385.0, 390.0, 1356.0, 2.05e5);
     voxel.set_plate_material(Some(copper));
@@ -694,7 +702,7 @@ fn losses_set_mid_run_act_from_then_on() {
 #[test]
 fn a_voxel_set_by_assimilation_is_booked_and_felt() {
     let deps = schedule();
-    let [_, voxel] = models(Material::g3si());
+    let [_, voxel, _] = models(Material::g3si());
     let mut run = voxel.start(&deps).unwrap();
     for i in 0..40 {
         run.deposit(i, 0.0).unwrap();

@@ -75,6 +75,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         probes: vec![],
         probe_every: 0.0,
         source: thermal::voxel::HeatSource::DoubleEllipsoid,
+        coarse_plate: false,
     };
     let t = std::time::Instant::now();
     let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps).unwrap();

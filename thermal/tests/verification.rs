@@ -84,6 +84,7 @@ fn adiabatic_voxels(
         probes: vec![],
         probe_every: 0.0,
         source: thermal::voxel::HeatSource::DoubleEllipsoid,
+        coarse_plate: false,
     }
 }
 

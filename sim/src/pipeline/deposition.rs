@@ -227,6 +227,7 @@ pub fn heat_model_of(
             probes: vec![],
             probe_every: 0.0,
             source: thermal::voxel::HeatSource::DoubleEllipsoid,
+            coarse_plate: t.coarse_plate,
         }),
     }
 }

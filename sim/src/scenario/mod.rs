@@ -462,6 +462,7 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         plate_fit,
         plate_disc,
         lead_m: t.lead_mm * MM,
+        coarse_plate: t.coarse_plate,
     };
     settings.check().map_err(|e| c.invalid(e))?;
     Ok(settings)

@@ -292,6 +292,8 @@ pub struct RawThermal {
     pub voxel_mm: f64,
     /// "box" or "disc" (of diameter plate_mm[0], which plate_mm[1] repeats; voxel model only).
     pub plate_shape: String,
+    /// Voxel model: the plate's cells merged 2 × 2 × 2 away from the metal laid on it.
+    pub coarse_plate: bool,
 }
 
 impl Default for RawThermal {
@@ -312,6 +314,7 @@ impl Default for RawThermal {
             properties: "temperature".into(),
             voxel_mm: d::VOXEL_MM,
             plate_shape: "box".into(),
+            coarse_plate: false,
         }
     }
 }

@@ -65,10 +65,18 @@ pub struct RawLive {
     /// The interpass limit the alarms judge the next layer's start by, °C.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interpass_max_c: Option<f64>,
+    /// The strength limit the alarms judge it by too (the lower of the two binds), °C.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub strength_loss_c: Option<f64>,
     /// The twin's voxel edge where it is not `[thermal] voxel_mm` (a coarser grid keeps an
     /// ensemble ahead of the cell), mm.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub voxel_mm: Option<f64>,
+    /// The twin's plate coarsened away from the metal laid on it (`[thermal] coarse_plate`);
+    /// on by default: the plate is most of a small part's cells, and the ensemble runs them
+    /// all many times over.
+    #[serde(default = "yes")]
+    pub coarse_plate: bool,
     /// A calibration.json whose fitted values and intervals are the prior instead of
     /// `[calibrate]`'s ranges.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -287,6 +295,10 @@ pub struct RawCalibrate {
     pub max_runs: usize,
 }
 
+fn yes() -> bool {
+    true
+}
+
 fn sixteen() -> usize {
     16
 }
@@ -434,6 +446,7 @@ pub struct Live {
     pub twin: crate::pipeline::twin::Settings,
     pub stall_s: f64,
     pub voxel_m: Option<f64>,
+    pub coarse_plate: bool,
     /// The calibration.json to take the prior from.
     pub prior: Option<PathBuf>,
     /// Where the probes are read from when not from the probe file.
@@ -814,6 +827,7 @@ impl Default for Live {
             twin: crate::pipeline::twin::Settings::default(),
             stall_s: 30.0,
             voxel_m: None,
+            coarse_plate: true,
             prior: None,
             opcua: None,
             machine_log: None,
@@ -840,6 +854,7 @@ fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Re
         forecast_every_s: l.forecast_every_s,
         horizons_s,
         interpass_max_k: l.interpass_max_c.map(|v| v + KELVIN),
+        strength_loss_k: l.strength_loss_c.map(|v| v + KELVIN),
         seed: l.seed,
     };
     twin.check().map_err(|e| c.invalid(e))?;
@@ -847,6 +862,7 @@ fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Re
         twin,
         stall_s: l.stall_s,
         voxel_m: l.voxel_mm.map(|v| v * 1e-3),
+        coarse_plate: l.coarse_plate,
         prior: l.prior.as_ref().map(|p| super::resolve(base, p)),
         opcua: l.opcua.as_ref().map(|o| opcua(o, probes, c)).transpose()?,
         machine_log: l

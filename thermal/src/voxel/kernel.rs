@@ -77,6 +77,7 @@ fn kirchhoff(m: &Material, ambient: f64, temps: &[f64]) -> Vec<f64> {
 }
 
 /// Constants of one explicit step.
+#[derive(Clone, Copy)]
 pub(super) struct Coefficients {
     /// dt / (ρ·dx³), s/kg.
     pub inv_cap: f32,

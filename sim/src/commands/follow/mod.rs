@@ -247,6 +247,7 @@ pub fn run(
     if let Some(v) = live.voxel_m {
         twin_scenario.thermal.voxel_m = v;
     }
+    twin_scenario.thermal.coarse_plate = live.coarse_plate;
     let r = set_up(&twin_scenario, 1.0)?;
     let priors = priors(&s, &live, &r)?;
     let print = checkpoint::of_run("follow", &s.to_json(), &r.deps);
@@ -272,7 +273,7 @@ pub fn run(
     let source_name = Source::name(&p, &live);
     let mut dir = RunDir::create(out)?;
     let names = names(&p);
-    let interpass_c = live.twin.interpass_max_k.map(|k| k - C);
+    let interpass_c = live.twin.tightest_limit().map(|(_, k)| k - C);
     let mut rec = Recorder::open(
         &dir,
         scenario,

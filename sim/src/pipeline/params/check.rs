@@ -570,16 +570,15 @@ impl crate::pipeline::twin::Settings {
             let expected = "1 to 16 horizons, each in (0, 1e5] s".into();
             return Err(r.fail("forecast_horizons_s", format!("{h:?}"), expected));
         }
-        match self.interpass_max_k {
-            Some(k) => r.range(
-                "interpass_max_c",
-                k,
-                (-200.0, 3000.0),
-                "a temperature in °C",
-                Celsius,
-            ),
-            None => Ok(()),
+        for (key, limit) in [
+            ("interpass_max_c", self.interpass_max_k),
+            ("strength_loss_c", self.strength_loss_k),
+        ] {
+            if let Some(k) = limit {
+                r.range(key, k, (-200.0, 3000.0), "a temperature in °C", Celsius)?;
+            }
         }
+        Ok(())
     }
 }
 

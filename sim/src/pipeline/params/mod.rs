@@ -180,6 +180,9 @@ pub struct ThermalSettings {
     /// The plate is a disc of diameter `plate_m[0]`.
     pub plate_disc: bool,
     pub lead_m: f64,
+    /// Voxel model: the plate's cells merged 2 × 2 × 2 away from the metal laid on it
+    /// (`thermal::voxel::VoxelSettings::coarse_plate`).
+    pub coarse_plate: bool,
 }
 
 impl Default for ThermalSettings {
@@ -212,6 +215,7 @@ impl ThermalSettings {
             plate_fit: true,
             plate_disc: false,
             lead_m: d::LEAD_MM * MM,
+            coarse_plate: false,
         }
     }
 }

@@ -212,6 +212,7 @@ pub(crate) mod fixtures {
             plate_fit: false,
             plate_disc: false,
             lead_m: 10e-3,
+            coarse_plate: false,
         }
     }
 }

@@ -15,8 +15,8 @@
 //! beside it (`ensemble_c`).
 //!
 //! A layer is a pass of the torch as a replay cuts them ([`replay::pass_starts`]): a track after
-//! travel or after a pause with the arc off. A CTPP spiral's revolution would be one too once
-//! its `path.csv` is the program (not built yet).
+//! travel or after a pause with the arc off; and within a pass, each climb onto a new revolution
+//! ([`layers`]): a CTPP spiral is followed and judged revolution by revolution.
 
 use super::asrun::{AsRun, MachineRow};
 use super::{Twin, enkf, probe_k, quantile};
@@ -46,17 +46,29 @@ fn layer_ends(layers: &[Layer]) -> impl Iterator<Item = (f64, Option<usize>)> + 
         .map(|(k, l)| (l.end_s, Some(k)))
 }
 
-/// The program's layers, in order.
+/// The program's layers, in order: its passes (a track after travel or after a pause with the
+/// arc off, as [`replay::pass_starts`] cuts them), each cut again where it climbs onto a new
+/// revolution: a deposit laid on the highest revolution so far (counted through the supports:
+/// on the plate 0, on a deposit of revolution r, r + 1). A CTPP spiral, one pass from its first
+/// arc to its last, is then a layer a revolution, as `dwell` judges it; a wall or a pad whose
+/// passes are its layers is cut where it was. A deposit that found no support counts as on the
+/// plate: it can delay a cut, never add one.
 pub fn layers(deps: &[Deposit]) -> Vec<Layer> {
-    let starts = replay::pass_starts(deps);
+    let mut revolution: Vec<usize> = Vec::with_capacity(deps.len());
+    let mut highest = 0;
     let mut firsts: Vec<usize> = Vec::new();
     for (i, d) in deps.iter().enumerate() {
+        let r = d
+            .support
+            .filter(|&s| s < i)
+            .map_or(0, |s| revolution[s] + 1);
+        revolution.push(r);
         let paused = i > 0 && d.arc_start() > deps[i - 1].time + 1e-9;
-        if i == 0 || d.start.is_some() || paused {
+        if i == 0 || d.start.is_some() || paused || r > highest {
             firsts.push(i);
         }
+        highest = highest.max(r);
     }
-    debug_assert_eq!(firsts.len(), starts.len());
     firsts
         .iter()
         .enumerate()
@@ -521,7 +533,12 @@ impl<'a> Follower<'a> {
     /// The forecasts made at `at` (the twin stands there), and at a layer's end the next
     /// layer's judgement.
     fn forecast(&mut self, at: f64, layer: Option<usize>) -> Result<Vec<Alarm>, Error> {
-        let next = self.layers.iter().position(|l| l.start_s > at);
+        // At a layer's end, the layer after it, though it start at once (a spiral's next
+        // revolution: a lead of nothing, judged as it strikes).
+        let next = match layer {
+            Some(k) => (k + 1 < self.layers.len()).then_some(k + 1),
+            None => self.layers.iter().position(|l| l.start_s > at),
+        };
         let mut targets: Vec<(f64, Horizon)> = self
             .twin
             .settings
@@ -603,42 +620,78 @@ impl<'a> Follower<'a> {
                 });
             }
         }
-        match (layer, next, self.twin.settings.interpass_max_k) {
+        match (layer, next, self.twin.settings.tightest_limit()) {
             (Some(_), Some(n), Some(limit)) => Ok(self.judge(at, n, limit)?.into_iter().collect()),
             _ => Ok(Vec::new()),
         }
     }
 
-    /// Layer `n`'s start judged from `at`: the hottest metal it is laid on, at the 95th
-    /// percentile over the members, against `limit` (K); an alarm with the dwell that brings
-    /// it under where it is over.
-    fn judge(&mut self, at: f64, n: usize, limit: f64) -> Result<Option<Alarm>, Error> {
+    /// Layer `n` judged from `at` against `limit` (its criterion, K), at the 95th percentile over
+    /// the members, as `dwell` judges it where it can: a layer after a pause (a wall's or a
+    /// pad's next pass) by the hottest metal it is laid on as it starts, its advice the cooling
+    /// that brings that under; a layer the program runs straight into (a spiral's next
+    /// revolution, whose last points lie on metal laid a moment before it starts) by each of
+    /// its points' preheat as the torch reaches it, read `lead` ahead as the dwell planner reads
+    /// it, its advice the least dwell before the layer (in 5 s steps) after which the layer,
+    /// run again, keeps under. An alarm where it is over.
+    fn judge(
+        &mut self,
+        at: f64,
+        n: usize,
+        (criterion, limit): (&str, f64),
+    ) -> Result<Option<Alarm>, Error> {
         let l = self.layers[n];
+        let programmed = l.start_s - self.layers[n - 1].end_s;
         let deps = self.twin.deps().to_vec();
+        let straight_on = programmed <= 1e-9;
         let beneath = |run: &ModelRun| -> f64 {
             (l.first..=l.last)
                 .filter(|&i| deps[i].support.is_none_or(|s| s < run.laid()))
                 .map(|i| run.temperature_beneath(i))
                 .fold(f64::NEG_INFINITY, f64::max)
         };
-        let start = self.twin.forecast(&[l.start_s], &beneath)?;
-        let Some((members, _)) = start.first() else {
-            return Ok(None);
+        let as_laid = |run: &ModelRun| -> f64 {
+            (l.first..=l.last)
+                .filter(|&i| crate::pipeline::risk::dwell_can_act(run.support(i)))
+                .map(|i| run.points()[i].preheat)
+                .fold(f64::NEG_INFINITY, f64::max)
         };
-        let p95 = quantile(members, 0.95);
-        self.progress.judged.push((at, n + 1, p95 - C));
-        if p95 <= limit {
+        let p95 = |dwell_s: f64| -> Result<f64, Error> {
+            let members = self
+                .twin
+                .through_layer((l.start_s, l.end_s), dwell_s, &as_laid)?;
+            Ok(quantile(&members, 0.95))
+        };
+        let judged = match straight_on {
+            true => p95(0.0)?,
+            false => {
+                let start = self.twin.forecast(&[l.start_s], &beneath)?;
+                let Some((members, _)) = start.first() else {
+                    return Ok(None);
+                };
+                quantile(members, 0.95)
+            }
+        };
+        // A layer laid on no earlier one (a spiral's first revolution) has nothing to judge.
+        if !judged.is_finite() {
             return Ok(None);
         }
-        let programmed = l.start_s - self.layers[n - 1].end_s;
-        let extra = self
-            .twin
-            .dwell_until(l.start_s, &beneath, limit, 5.0, 3600.0)?;
+        self.progress.judged.push((at, n + 1, judged - C));
+        if judged <= limit {
+            return Ok(None);
+        }
+        let extra = match straight_on {
+            true => least_dwell(|d| Ok(p95(d)? <= limit), DWELL_STEP_S, MAX_DWELL_S)?,
+            false => {
+                self.twin
+                    .dwell_until(l.start_s, &beneath, limit, DWELL_STEP_S, MAX_DWELL_S)?
+            }
+        };
         let alarm = Alarm {
             made_at_s: at,
             layer: n + 1,
-            criterion: "interpass".into(),
-            predicted_p95_c: p95 - C,
+            criterion: criterion.into(),
+            predicted_p95_c: judged - C,
             limit_c: limit - C,
             programmed_dwell_s: programmed,
             advised_dwell_s: extra.map(|e| programmed + e),
@@ -646,6 +699,42 @@ impl<'a> Follower<'a> {
         self.progress.alarms.push(alarm.clone());
         Ok(Some(alarm))
     }
+}
+
+/// The step the advised dwells are found in, s.
+const DWELL_STEP_S: f64 = 5.0;
+/// The longest dwell advised, s: past it, no advice.
+const MAX_DWELL_S: f64 = 3600.0;
+
+/// The least multiple of `step` up to `max` for which `safe` holds, `safe` being false at 0 and
+/// monotone (a longer dwell never hotter): doubled from `step` until safe, then halved back in
+/// between; None where `max` is not safe. About 2·log2(max/step) calls.
+fn least_dwell(
+    mut safe: impl FnMut(f64) -> Result<bool, Error>,
+    step: f64,
+    max: f64,
+) -> Result<Option<f64>, Error> {
+    let (mut unsafe_k, mut k) = (0u64, 1u64);
+    loop {
+        let d = (k as f64 * step).min(max);
+        if safe(d)? {
+            break;
+        }
+        if d >= max {
+            return Ok(None);
+        }
+        unsafe_k = k;
+        k *= 2;
+    }
+    let mut safe_k = k.min((max / step).ceil() as u64);
+    while safe_k - unsafe_k > 1 {
+        let mid = (safe_k + unsafe_k) / 2;
+        match safe(mid as f64 * step)? {
+            true => safe_k = mid,
+            false => unsafe_k = mid,
+        }
+    }
+    Ok(Some((safe_k as f64 * step).min(max)))
 }
 
 #[cfg(test)]
@@ -732,5 +821,48 @@ mod tests {
         assert_eq!(l.len(), 2);
         assert_eq!((l[0].first, l[0].last, l[1].first, l[1].last), (0, 1, 2, 3));
         assert_eq!((l[0].start_s, l[0].end_s, l[1].start_s), (0.0, 2.0, 10.0));
+    }
+
+    /// A spiral laid in one pass (no travel, no pause) is a layer a revolution: the helix's
+    /// three revolutions, each starting at the deposit that first lies on the one below.
+    #[test]
+    fn a_spiral_is_a_layer_a_revolution() {
+        let deps = thermal::schedule::helix(0.03, 40, 3, 2e-3, 5e-3, 10e-3, 1700.0);
+        assert!(deps.iter().skip(1).all(|d| d.start.is_none()));
+        let l = layers(&deps);
+        let firsts: Vec<usize> = l.iter().map(|l| l.first).collect();
+        let climbs: Vec<usize> = (1..deps.len())
+            .filter(|&i| deps[i].support.is_some() && deps[i - 1].support.is_none())
+            .collect();
+        assert_eq!(
+            climbs.len(),
+            1,
+            "the helix lies on the plate for its first revolution"
+        );
+        assert_eq!(l.len(), 3, "{firsts:?}");
+        assert_eq!(firsts[1], climbs[0]);
+        assert_eq!(l[2].first - l[1].first, 40);
+        assert!(l.windows(2).all(|w| w[0].last + 1 == w[1].first));
+    }
+
+    /// The least safe dwell on a 5 s grid: found exactly for any threshold, None past the
+    /// longest, in about 2·log2 of the range's calls.
+    #[test]
+    fn the_least_dwell_is_found_on_its_grid() {
+        for need in [0.1, 5.0, 5.1, 37.0, 640.0, 3599.0] {
+            let mut calls = 0;
+            let got = least_dwell(
+                |d| {
+                    calls += 1;
+                    Ok(d >= need)
+                },
+                5.0,
+                3600.0,
+            )
+            .unwrap();
+            assert_eq!(got, Some((need / 5.0).ceil() * 5.0), "{need}");
+            assert!(calls <= 21, "{calls} calls for {need}");
+        }
+        assert_eq!(least_dwell(|_| Ok(false), 5.0, 3600.0).unwrap(), None);
     }
 }

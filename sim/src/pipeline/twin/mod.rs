@@ -40,6 +40,9 @@ pub struct Settings {
     pub horizons_s: Vec<f64>,
     /// The interpass limit an alarm judges the next layer's start by, K.
     pub interpass_max_k: Option<f64>,
+    /// The strength limit (`[dwell] strength_loss_c`'s: the layer beneath below it when the
+    /// torch returns), judged as the interpass limit is, K.
+    pub strength_loss_k: Option<f64>,
     pub seed: u64,
 }
 
@@ -55,8 +58,25 @@ impl Default for Settings {
             forecast_every_s: 30.0,
             horizons_s: vec![60.0, 300.0],
             interpass_max_k: None,
+            strength_loss_k: None,
             seed: 1,
         }
+    }
+}
+
+impl Settings {
+    /// The limit an alarm judges the next layer's start by: the lower of the interpass and the
+    /// strength limits in force, with its criterion's name (both bound the metal the layer is
+    /// laid on, as `dwell` judges them; humping and the Bond number judge the pool, which the
+    /// twin does not forecast).
+    pub fn tightest_limit(&self) -> Option<(&'static str, f64)> {
+        [
+            ("interpass", self.interpass_max_k),
+            ("strength", self.strength_loss_k),
+        ]
+        .into_iter()
+        .filter_map(|(name, k)| k.map(|k| (name, k)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 }
 
@@ -457,6 +477,33 @@ impl<'a> Twin<'a> {
                 (m, o)
             })
             .collect())
+    }
+
+    /// Per member, `read` once it has run to `start_s`, cooled `dwell_s` with the arc off and
+    /// run on through the program to `end_s + dwell_s`: what a dwell before the layer from
+    /// `start_s` to `end_s` would make of it. The program after the dwell is laid back to back
+    /// (its own pauses inside the layer dropped: this is for a layer the program runs without
+    /// one, a spiral's revolution). The twin itself does not move.
+    pub fn through_layer(
+        &self,
+        (start_s, end_s): (f64, f64),
+        dwell_s: f64,
+        read: &(dyn Fn(&ModelRun) -> f64 + Sync),
+    ) -> Result<Vec<f64>, Error> {
+        let (deps, scale) = (&self.deps, self.heat_scale());
+        self.state
+            .members
+            .par_iter()
+            .map(|m| {
+                let (mut run, s) = (m.run.clone(), scale(&m.values));
+                replay::advance_scaled(&mut run, deps, start_s, s, &mut |_| {})?;
+                if dwell_s > 0.0 {
+                    run.cool(dwell_s)?;
+                }
+                replay::advance_scaled(&mut run, deps, end_s + dwell_s, s, &mut |_| {})?;
+                Ok(read(&run))
+            })
+            .collect()
     }
 
     /// The members cooled from `from_s` with the arc off, `step_s` at a time up to `max_s`,
