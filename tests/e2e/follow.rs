@@ -533,7 +533,14 @@ fn bad_live_input_is_named() {
             case.join("out").to_str().unwrap(),
         ])
     };
-    let cases: [(&str, &[&str]); 3] = [
+    let cases: [(&str, &[&str]); 4] = [
+        (
+            "[live.machine_log]\nfile = \"machine.csv\"\narc_on_column = 0",
+            &[
+                "live.machine_log.time_column = 0",
+                "a column other than the signals' own",
+            ],
+        ),
         (
             "relaxation = 2.0",
             &["live.relaxation = 2", "a share in [0, 1]"],
@@ -718,6 +725,78 @@ fn the_machine_log_wins_over_the_program() {
             "{programmed} not in {starts:?}"
         );
     }
+}
+
+/// The machine log in a file of its own (`[live.machine_log] file`), written by its own logger
+/// at half the probes' pace (so the readings wait for it, and the two files end at different
+/// moments): the same forecasts and alarms, to the byte, and the same account of the log, as
+/// with the arc's state in the probe file's rows.
+#[test]
+fn a_machine_log_in_its_own_file_is_followed_beside_the_probes() {
+    let dir = scratch("follow_machine_file");
+    let on = [
+        (0.0, 8.0),
+        (20.0, 28.0),
+        (40.0, 44.0),
+        (60.0, 64.0),
+        (76.0, 84.0),
+    ];
+    let arc = |t: f64| u8::from(on.iter().any(|&(a, b)| (a..b).contains(&t)));
+    let run = |name: &str, own_file: bool| {
+        let at = dir.join(name);
+        std::fs::create_dir_all(&at).unwrap();
+        let (plain, lines) = small_wall(&at, "interpass_max_c = 100.0");
+        let time = |l: &String| -> f64 { l.split(',').next().unwrap().parse().unwrap() };
+        let machine = match own_file {
+            true => "[live.machine_log]\nfile = \"machine.csv\"\narc_on_column = 1\n",
+            false => "[live.machine_log]\narc_on_column = 4\n",
+        };
+        let text = std::fs::read_to_string(&plain).unwrap() + "\n" + machine;
+        std::fs::write(&plain, text).unwrap();
+        let writers = match own_file {
+            true => {
+                let mut log = vec!["t_s,arc_on".to_string()];
+                log.extend(
+                    lines[1..]
+                        .iter()
+                        .map(|l| format!("{},{}", time(l), arc(time(l)))),
+                );
+                vec![
+                    logger(at.join("log.csv"), lines, Duration::from_millis(5), None),
+                    logger(at.join("machine.csv"), log, Duration::from_millis(10), None),
+                ]
+            }
+            false => {
+                let mut both = vec![format!("{},arc_on", lines[0])];
+                both.extend(lines[1..].iter().map(|l| format!("{l},{}", arc(time(l)))));
+                std::fs::write(at.join("log.csv"), both.join("\n") + "\n").unwrap();
+                vec![]
+            }
+        };
+        let out = at.join("out");
+        let child = follow(&plain, &out, &["--until-idle-s", "3"]);
+        writers.into_iter().for_each(|w| w.join().unwrap());
+        let (ok, text) = finish(child, Duration::from_secs(300));
+        assert!(ok, "{text}");
+        let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();
+        let v = json(&out.join("follow.json"));
+        (read("forecasts.csv"), read("alarms.csv"), v)
+    };
+    let (rows, rows_alarms, in_rows) = run("in_rows", false);
+    let (own, own_alarms, in_file) = run("own_file", true);
+    assert_eq!(in_file["machine_log"], in_rows["machine_log"]);
+    assert_eq!(
+        in_file["machine_log"]["stops_mid_pass"], 1,
+        "{}",
+        in_file["machine_log"]
+    );
+    assert_eq!(
+        in_file["refused"]["machine_late"], 0,
+        "{}",
+        in_file["refused"]
+    );
+    assert!(own == rows, "the forecasts differ");
+    assert_eq!(own_alarms, rows_alarms);
 }
 
 /// `--connect` to a viewer that is not there: said on stderr, and the run writes run.rrd and

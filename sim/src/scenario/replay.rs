@@ -96,6 +96,12 @@ pub struct RawLive {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawMachineLog {
+    /// The log's own file (followed as the probe file is), where it is not the probe file's
+    /// rows; its columns are then that file's, its times in `time_column`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    #[serde(default)]
+    pub time_column: usize,
     /// The arc's state (on where above `arc_on_above`): a flag, or the current.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub arc_on_column: Option<usize>,
@@ -493,6 +499,8 @@ pub struct MachineLog {
     /// Per [`Signal`], its column.
     pub columns: [Option<usize>; 4],
     pub arc_on_above: f64,
+    /// Its own file and that file's time column, where it is not in the probe file's rows.
+    pub file: Option<(PathBuf, usize)>,
 }
 
 impl ReplayScenario {
@@ -868,20 +876,42 @@ fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Re
         machine_log: l
             .machine_log
             .as_ref()
-            .map(|m| machine_log(m, l.opcua.is_some(), c))
+            .map(|m| machine_log(m, l.opcua.is_some(), c, base))
             .transpose()?,
     })
 }
 
 /// `[live.machine_log]`: the arc's state at least (from the file, or from the OPC UA node
 /// `arc_on`), and the power from `power_w` or from both of `voltage_v` and `current_a`.
-fn machine_log(m: &RawMachineLog, opcua: bool, c: &Checker) -> Result<MachineLog> {
+fn machine_log(m: &RawMachineLog, opcua: bool, c: &Checker, base: &Path) -> Result<MachineLog> {
     const SECTION: &str = "live.machine_log";
+    if m.file.is_some() && opcua {
+        return Err(c.fail_text(
+            SECTION,
+            "file",
+            "file with [live.opcua]; expected one source of the machine's signals: the OPC UA \
+             nodes, or a file",
+        ));
+    }
     if m.arc_on_column.is_none() && !opcua {
         return Err(c.fail_text(
             SECTION,
             "arc_on_column",
-            "arc_on_column missing; expected the probe file's column of the arc's state",
+            "arc_on_column missing; expected the log's column of the arc's state",
+        ));
+    }
+    let columns = [
+        m.arc_on_column,
+        m.voltage_v_column,
+        m.current_a_column,
+        m.power_w_column,
+    ];
+    if m.file.is_some() && columns.contains(&Some(m.time_column)) {
+        return Err(c.fail(
+            SECTION,
+            "time_column",
+            m.time_column,
+            "a column other than the signals' own",
         ));
     }
     if m.voltage_v_column.is_some() != m.current_a_column.is_some() {
@@ -907,6 +937,10 @@ fn machine_log(m: &RawMachineLog, opcua: bool, c: &Checker) -> Result<MachineLog
             m.power_w_column,
         ],
         arc_on_above: m.arc_on_above,
+        file: m
+            .file
+            .as_ref()
+            .map(|f| (super::resolve(base, f), m.time_column)),
     })
 }
 

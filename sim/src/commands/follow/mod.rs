@@ -9,6 +9,7 @@
 //! or on Ctrl-C; a killed run goes on with `--resume` from its last checkpoint and writes
 //! what an uninterrupted one does.
 
+mod merge;
 #[cfg(feature = "opcua")]
 pub mod opcua;
 pub mod tail;
@@ -25,6 +26,7 @@ use crate::pipeline::twin::asrun::MachineRow;
 use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, Progress};
 use crate::pipeline::twin::{Twin, Uncertain};
 use crate::scenario::replay::{Live, MachineLog, Probes, ReplayScenario, Signal};
+use merge::{Merge, Next};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write;
@@ -64,6 +66,13 @@ struct Counters {
     /// What the OPC UA subscription met (repeats, incomplete rows, losses, reconnects).
     #[serde(default)]
     opcua: serde_json::Value,
+    /// Where the machine log's own file is read to, what was fed of it.
+    #[serde(default)]
+    machine_mark: Mark,
+    /// Rows of the machine log's own file that came after readings later than them were fed
+    /// (it had stalled): dropped.
+    #[serde(default)]
+    machine_late: usize,
 }
 
 /// Where the readings come from: the probe file as the logger writes it, or the cell's OPC UA
@@ -255,21 +264,28 @@ pub fn run(
     let mut ck = Checkpoints::to(&mut folder);
     let twin = Twin::new(&r, live.twin.clone(), priors.clone())
         .map_err(|e| Error::from(e).context(&name))?;
-    let layout = Layout::of(&p, live.machine_log.as_ref());
-    let (mut follower, mark, mut counters) = match ck.load::<(Progress, Mark, Counters)>("follow") {
-        Some((progress, mark, counters)) => {
-            (Follower::resume(twin, &r.deps, progress), mark, counters)
-        }
-        None => (
-            Follower::new(twin, &r.deps, p.points.len()),
-            Mark::default(),
-            Counters::default(),
-        ),
-    };
+    // The machine's signals in the probe file's rows, or in a file of their own.
+    let machine_file = live.machine_log.as_ref().and_then(|m| m.file.clone());
+    let in_rows = live.machine_log.as_ref().filter(|m| m.file.is_none());
+    let layout = Layout::of(&p, in_rows);
+    let (mut follower, mut probe_mark, mut counters) =
+        match ck.load::<(Progress, Mark, Counters)>("follow") {
+            Some((progress, mark, counters)) => {
+                (Follower::resume(twin, &r.deps, progress), mark, counters)
+            }
+            None => (
+                Follower::new(twin, &r.deps, p.points.len()),
+                Mark::default(),
+                Counters::default(),
+            ),
+        };
     if live.machine_log.is_some() {
         follower = follower.with_machine_log(s.laying.power_w);
     };
-    let mut source = Source::open(&p, &live, mark, follower.data_s())?;
+    let mut source = Source::open(&p, &live, probe_mark.clone(), follower.data_s())?;
+    let mut machine = machine_file
+        .as_ref()
+        .map(|(file, _)| MachineFile::new(file, counters.machine_mark.clone()));
     let source_name = Source::name(&p, &live);
     let mut dir = RunDir::create(out)?;
     let names = names(&p);
@@ -286,6 +302,12 @@ pub fn run(
     let clock = Instant::now();
     let (mut last_new, mut last_rewrite) = (Instant::now(), Instant::now());
     let mut stalled = false;
+    let mut merge = Merge::new();
+    // The program's end as the machine log has moved it, where the build has one.
+    let done = |f: &Follower| {
+        let end = f.twin.deps().last().map_or(0.0, |d| d.time);
+        f.data_s().is_some_and(|d| d >= end + longest)
+    };
     let ending = loop {
         if INTERRUPTED.load(Ordering::SeqCst) {
             break "interrupted (Ctrl-C)";
@@ -295,7 +317,7 @@ pub fn run(
         for line in said {
             eprintln!("follow: {source_name}: {line}");
         }
-        let fresh = match &brought {
+        let mut fresh = match &brought {
             Brought::Lines(l) => !l.is_empty(),
             Brought::Rows(r) => !r.is_empty(),
         };
@@ -312,44 +334,49 @@ pub fn run(
             }
             last_new = Instant::now();
         }
-        // The program's end as the machine log has moved it, where the build has one.
-        let done = |f: &Follower| {
-            let end = f.twin.deps().last().map_or(0.0, |d| d.time);
-            f.data_s().is_some_and(|d| d >= end + longest)
-        };
-        let rows: Vec<(Mark, Option<Row>)> = match brought {
-            Brought::Lines(lines) => lines
-                .into_iter()
-                .map(|(mark, text)| {
-                    let row = parse(&mut counters, &p, &layout, (mark.lines, &text));
-                    (mark, row)
-                })
-                .collect(),
+        match brought {
+            Brought::Lines(lines) => {
+                for (mark, text) in lines {
+                    match parse(&mut counters, &p, &layout, (mark.lines, &text)) {
+                        Some(row) => merge.probe(mark, row),
+                        // A line that is no row is read for good once nothing before it
+                        // waits (a resumed run does not count a malformed one twice).
+                        None if merge.holds_no_probe_row() => probe_mark = mark,
+                        None => {}
+                    }
+                }
+            }
             Brought::Rows(rows) => rows
                 .into_iter()
-                .map(|r| (Mark::default(), Some(r)))
-                .collect(),
-        };
-        for (mark, row) in rows {
+                .for_each(|r| merge.probe(Mark::default(), r)),
+        }
+        if let (Some(m), Some(log)) = (machine.as_mut(), live.machine_log.as_ref()) {
+            fresh |= m.look(log, live.stall_s, &mut counters, &mut merge)?;
+        }
+        let machine_waits = machine.as_ref().is_some_and(|m| !m.stalled);
+        while let Some(next) = merge.next(!stalled, machine_waits) {
             // Rows past the end are left unread: where a run ends does not hang on how the
-            // source was cut into looks.
+            // sources were cut into looks.
             if done(&follower) {
                 break;
             }
-            if let Some(row) = row {
-                feed(
-                    &mut follower,
-                    &mut counters,
-                    row,
-                    (&s, &p, live.machine_log.as_ref()),
-                    read_at,
-                    &mut rec,
-                )?;
-            }
-            // Kept after a row, with where the file is read to after it: a resumed run reads
-            // on from the next row whatever the looks were.
+            let at = (&mut probe_mark, read_at);
+            take(
+                &mut follower,
+                &mut counters,
+                next,
+                at,
+                (&s, &p, live.machine_log.as_ref()),
+                &mut rec,
+            )?;
+            // Kept after a row, with where the files are read to after it: a resumed run
+            // reads on from the next row whatever the looks were.
             ck.save_if_due("follow", || {
-                (follower.checkpoint().clone(), mark, counters.clone())
+                (
+                    follower.checkpoint().clone(),
+                    probe_mark.clone(),
+                    counters.clone(),
+                )
             });
             if last_rewrite.elapsed() >= REWRITE {
                 write(
@@ -385,6 +412,21 @@ pub fn run(
         }
         std::thread::sleep(POLL);
     };
+    // What was read and held for the other file goes now, in time order.
+    while let Some(next) = merge.next(false, false) {
+        if done(&follower) {
+            break;
+        }
+        let at = (&mut probe_mark, Instant::now());
+        take(
+            &mut follower,
+            &mut counters,
+            next,
+            at,
+            (&s, &p, live.machine_log.as_ref()),
+            &mut rec,
+        )?;
+    }
     write(
         &mut dir, &follower, &names, &priors, &counters, &clock, ending,
     )?;
@@ -454,6 +496,128 @@ fn parse(c: &mut Counters, p: &Probes, l: &Layout, (n, text): (usize, &str)) -> 
         Ok(Line::Row(t, v)) => Some((t, v)),
         Err(e) => {
             let line = format!("{} line {n}: {e}", p.file.display());
+            eprintln!("follow: skipped {line}");
+            c.malformed += 1;
+            if c.malformed_lines.len() < 20 {
+                c.malformed_lines.push(line);
+            }
+            None
+        }
+    }
+}
+
+/// Feed what the merge let go: a probe row to the engine ([`feed`]), or a row of the machine
+/// log's own file (one earlier than the readings already fed came too late: counted and
+/// dropped); `probe_mark` and the counters' `machine_mark` then say where its file is read to.
+fn take(
+    follower: &mut Follower,
+    counters: &mut Counters,
+    next: Next,
+    (probe_mark, read_at): (&mut Mark, Instant),
+    of: (&ReplayScenario, &Probes, Option<&MachineLog>),
+    rec: &mut Recorder,
+) -> Result<()> {
+    match next {
+        Next::Probe(mark, row) => {
+            feed(follower, counters, row, of, read_at, rec)?;
+            *probe_mark = mark;
+        }
+        Next::Machine(mark, row) => {
+            match follower.data_s().is_some_and(|d| row.t_s < d) {
+                true => counters.machine_late += 1,
+                false => follower.machine(row),
+            }
+            counters.machine_mark = mark;
+        }
+    }
+    Ok(())
+}
+
+/// The machine log's own file (`[live.machine_log] file`), followed as the probe file is.
+struct MachineFile {
+    tail: Tail,
+    /// No new line for `[live] stall_s`: the readings no longer wait for it.
+    stalled: bool,
+    last_new: Instant,
+}
+
+impl MachineFile {
+    fn new(path: &Path, mark: Mark) -> MachineFile {
+        MachineFile {
+            tail: Tail::new(path, mark),
+            stalled: false,
+            last_new: Instant::now(),
+        }
+    }
+
+    /// Read what is new into `merge`; whether anything came. Says when the file was cut or
+    /// replaced, when it stalls and when it comes back.
+    fn look(
+        &mut self,
+        log: &MachineLog,
+        stall_s: f64,
+        c: &mut Counters,
+        merge: &mut Merge,
+    ) -> Result<bool> {
+        let name = self.tail.path().display().to_string();
+        let look = self
+            .tail
+            .look()
+            .map_err(|e| Error::failure(format!("cannot read {name}: {e}")))?;
+        if let Some(why) = look.restarted {
+            let line = format!("{name}: {why}; read again from its start");
+            eprintln!("follow: {line}");
+            c.restarts.push(line);
+        }
+        let fresh = !look.lines.is_empty();
+        for (mark, text) in look.lines {
+            if let Some(row) = machine_line(c, log, &name, (mark.lines, &text)) {
+                merge.machine(mark, row);
+            }
+        }
+        let quiet = self.last_new.elapsed().as_secs_f64();
+        if fresh {
+            if self.stalled {
+                eprintln!("follow: {name}: the machine log again after {quiet:.0} s");
+            }
+            (self.stalled, self.last_new) = (false, Instant::now());
+        } else if !self.stalled && quiet >= stall_s {
+            self.stalled = true;
+            eprintln!(
+                "follow: {name}: no new line for {quiet:.0} s; the readings go on without it \
+                 (the program as programmed where the log has not reached)"
+            );
+        }
+        Ok(fresh)
+    }
+}
+
+/// Line `n` of the machine log's own file as a machine row; a line that does not read is
+/// named, counted and skipped, one that does not say the arc's state is nothing.
+fn machine_line(
+    c: &mut Counters,
+    log: &MachineLog,
+    name: &str,
+    (n, text): (usize, &str),
+) -> Option<MachineRow> {
+    let time_column = log.file.as_ref().map_or(0, |f| f.1);
+    let (columns, slots): (Vec<usize>, Vec<usize>) = log
+        .columns
+        .iter()
+        .enumerate()
+        .filter_map(|(k, c)| c.map(|c| (c, k)))
+        .unzip();
+    match probes::signals(text, n, time_column, &columns) {
+        Ok(Line::Row(t, values)) => {
+            let mut signals = [None; Signal::ALL.len()];
+            for (slot, v) in slots.into_iter().zip(values) {
+                signals[slot] = v;
+            }
+            machine_row(t, &signals, log)
+        }
+        Ok(Line::Nothing) => None,
+        Err(e) => {
+            let line = format!("{name} line {n}: {e}");
             eprintln!("follow: skipped {line}");
             c.malformed += 1;
             if c.malformed_lines.len() < 20 {
@@ -882,6 +1046,7 @@ fn report(
             "back_in_time": p.back_in_time,
             "below_ambient": c.below_ambient,
             "read_again": c.reread,
+            "machine_late": c.machine_late,
         },
         "restarts": c.restarts,
         "opcua": c.opcua,
