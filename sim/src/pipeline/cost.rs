@@ -85,7 +85,30 @@ pub fn estimate(
             } else {
                 1.0
             };
-            let plate = (px / dx).ceil() * (py / dx).ceil() * (pz / dx).ceil() * disc;
+            let columns = (px / dx).ceil() * (py / dx).ceil() * disc;
+            let layers = (pz / dx).round().max(1.0);
+            let plate = match t.coarse_plate {
+                false => columns * layers,
+                // Blocks of 8 cells, an odd plate's top layer, and two layers of cells of edge
+                // dx under the first layers' band (`thermal::voxel`'s fine columns).
+                true => {
+                    let band: f64 = deposits
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, d)| d.support.is_none())
+                        .map(|(i, d)| (segment(deposits, i) + dx) * (3.0 * d.width + 6.0 * dx))
+                        .sum::<f64>()
+                        / (dx * dx);
+                    let block_layers = (layers / 2.0).floor();
+                    let band = if block_layers >= 1.0 {
+                        band.min(columns)
+                    } else {
+                        0.0
+                    };
+                    columns * (layers % 2.0) + block_layers * columns / 4.0 - band / 4.0
+                        + 2.0 * band
+                }
+            };
             let metal: f64 = deposits
                 .iter()
                 .enumerate()
@@ -238,5 +261,38 @@ mod tests {
         let dx = voxel_to_fit(t.voxel_m, e.bytes, 20e9);
         assert!((dx / 0.25e-3 - (e.bytes / 20e9).cbrt()).abs() < 1e-12);
         assert!(speedup(2) == 1.7 && speedup(16) == 3.1 && speedup(1) == 1.0);
+    }
+
+    /// A coarsened plate is counted as its blocks: the plate (200 cells thick) as an
+    /// eighth of its cells; one a cell thicker keeps its top layer of cells beside them. No
+    /// deposits, so no band of cells kept under the first layers.
+    #[test]
+    fn a_coarsened_plate_counts_its_blocks() {
+        let t = ThermalSettings {
+            model: ThermalModel::Voxel,
+            voxel_m: 0.25e-3,
+            plate_m: [1.0, 1.0, 0.05],
+            plate_fit: false,
+            plate_disc: false,
+            coarse_plate: true,
+            ..ThermalSettings::default()
+        };
+        let m = thermal::material::Material::g3si();
+        let e = estimate(&t, &m, &[], 100.0, 1.0, 0, 2);
+        assert!(
+            (e.plate_cells - 3.2e9 / 8.0).abs() < 1e6,
+            "{}",
+            e.plate_cells
+        );
+        let odd = ThermalSettings {
+            plate_m: [1.0, 1.0, 0.05025],
+            ..t
+        };
+        let e = estimate(&odd, &m, &[], 100.0, 1.0, 0, 2);
+        assert!(
+            (e.plate_cells - (1.6e7 + 3.2e9 / 8.0)).abs() < 1e6,
+            "{}",
+            e.plate_cells
+        );
     }
 }
