@@ -327,6 +327,44 @@ fn a_spiral_is_followed_and_judged_revolution_by_revolution() {
     assert!(text.contains("strength limit 180 °C"), "{text}");
 }
 
+/// The humping limit (`[live] humping_pool_mm`) judged at each layer's end by the longest melt
+/// pool the next layer lays, the members run through it: in the alarms' millimetre columns,
+/// named `humping`, beside the temperature criteria's, which it leaves empty; where no dwell up
+/// to an hour shortens the pool enough (this wall's tracks stay molten end to end), no advice.
+#[test]
+fn the_next_layers_melt_pool_is_judged_against_the_humping_limit() {
+    let dir = scratch("follow_humping");
+    let (scenario, lines) = small_wall(&dir, "humping_pool_mm = 2.0");
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let out = dir.join("out");
+    let (ok, text) = finish(
+        follow(&scenario, &out, &["--until-idle-s", "2"]),
+        Duration::from_secs(300),
+    );
+    assert!(ok, "{text}");
+    let (header, alarms) = crate::read_csv(&out.join("alarms.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let layers: Vec<&str> = alarms.iter().map(|a| a[col("layer")].as_str()).collect();
+    assert_eq!(layers, ["2", "3", "4", "5", "6"], "{alarms:?}");
+    for a in &alarms {
+        assert_eq!(a[col("criterion")], "humping");
+        assert_eq!(
+            (
+                a[col("predicted_p95_c")].as_str(),
+                a[col("limit_c")].as_str()
+            ),
+            ("", "")
+        );
+        assert_eq!(a[col("limit_mm")], "2.00");
+        let pool: f64 = a[col("predicted_p95_mm")].parse().unwrap();
+        // The small wall's made-up process runs its tracks molten end to end (the pool is
+        // counted back along the path, as `dwell` counts it): past any dwell's cure.
+        assert!(pool > 2.0 && pool < 480.0, "{a:?}");
+        assert_eq!(a[col("advised_dwell_s")], "", "{a:?}");
+    }
+    assert!(text.contains("would lay a melt pool"), "{text}");
+}
+
 /// A garbage line and a reading that goes back in time are named, counted and skipped; the
 /// rest of the build is followed.
 #[test]

@@ -68,6 +68,9 @@ pub struct RawLive {
     /// The strength limit the alarms judge it by too (the lower of the two binds), °C.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub strength_loss_c: Option<f64>,
+    /// The humping limit the alarms judge the next layer's melt pool by, mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub humping_pool_mm: Option<f64>,
     /// The twin's voxel edge where it is not `[thermal] voxel_mm` (a coarser grid keeps an
     /// ensemble ahead of the cell), mm.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -863,6 +866,7 @@ fn live(l: &RawLive, probes: Option<&RawProbes>, c: &Checker, base: &Path) -> Re
         horizons_s,
         interpass_max_k: l.interpass_max_c.map(|v| v + KELVIN),
         strength_loss_k: l.strength_loss_c.map(|v| v + KELVIN),
+        humping_pool_m: l.humping_pool_mm.map(|v| v * 1e-3),
         seed: l.seed,
     };
     twin.check().map_err(|e| c.invalid(e))?;

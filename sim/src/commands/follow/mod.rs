@@ -23,7 +23,7 @@ use crate::pipeline::calibrate::Range;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{BELOW_AMBIENT_K, Parameter, Replay};
 use crate::pipeline::twin::asrun::MachineRow;
-use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, Progress};
+use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, Progress, Unit};
 use crate::pipeline::twin::{Twin, Uncertain};
 use crate::scenario::replay::{Live, MachineLog, Probes, ReplayScenario, Signal};
 use merge::{Merge, Next};
@@ -968,17 +968,21 @@ fn write(
     dir.write("assimilation.csv", csv.as_bytes())?;
     let mut csv = String::from(
         "made_at_s,layer,criterion,predicted_p95_c,limit_c,programmed_dwell_s,advised_dwell_s,\
-         extra_dwell_s\n",
+         extra_dwell_s,predicted_p95_mm,limit_mm\n",
     );
     for a in &p.alarms {
+        // Each criterion's numbers in the columns of its unit, the others' left empty.
+        let pair = format!("{:.2},{:.2}", a.predicted_p95, a.limit);
+        let (celsius, mm) = match a.unit {
+            Unit::Celsius => (pair, ",".to_string()),
+            Unit::Millimetre => (",".to_string(), pair),
+        };
         let _ = writeln!(
             csv,
-            "{:.3},{},{},{:.2},{:.2},{:.1},{},{}",
+            "{:.3},{},{},{celsius},{:.1},{},{},{mm}",
             a.made_at_s,
             a.layer,
             a.criterion,
-            a.predicted_p95_c,
-            a.limit_c,
             a.programmed_dwell_s,
             a.advised_dwell_s
                 .map_or(String::new(), |v| format!("{v:.1}")),
@@ -1083,12 +1087,16 @@ fn report(
 }
 
 fn alarm_json(a: &Alarm) -> serde_json::Value {
+    let (predicted, limit) = match a.unit {
+        Unit::Celsius => ("predicted_p95_c", "limit_c"),
+        Unit::Millimetre => ("predicted_p95_mm", "limit_mm"),
+    };
     json!({
         "made_at_s": a.made_at_s,
         "layer": a.layer,
         "criterion": a.criterion,
-        "predicted_p95_c": a.predicted_p95_c,
-        "limit_c": a.limit_c,
+        predicted: a.predicted_p95,
+        limit: a.limit,
         "programmed_dwell_s": a.programmed_dwell_s,
         "advised_dwell_s": a.advised_dwell_s,
         "extra_dwell_s": a.extra_s(),

@@ -578,7 +578,10 @@ impl crate::pipeline::twin::Settings {
                 r.range(key, k, (-200.0, 3000.0), "a temperature in °C", Celsius)?;
             }
         }
-        Ok(())
+        match self.humping_pool_m {
+            Some(m) => r.positive("humping_pool_mm", m, 1000.0, Milli),
+            None => Ok(()),
+        }
     }
 }
 

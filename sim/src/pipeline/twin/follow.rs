@@ -274,17 +274,19 @@ fn line(lines: &[Learned], k: usize, h: usize, horizons_s: &[f64]) -> usize {
         .map_or(pooled(h), pooled)
 }
 
-/// A layer whose start the forecast puts at risk.
+/// A layer the forecast puts at risk.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Alarm {
     pub made_at_s: f64,
     /// The layer at risk, counted from 1.
     pub layer: usize,
     pub criterion: String,
-    /// The 95th percentile over the members of the hottest metal the layer is laid on, as it
-    /// starts, °C.
-    pub predicted_p95_c: f64,
-    pub limit_c: f64,
+    /// The 95th percentile over the members of what the criterion judges, and its limit, in
+    /// `unit`: the hottest metal the layer is laid on (°C: interpass, strength), or the longest
+    /// melt pool it lays (mm: humping).
+    pub predicted_p95: f64,
+    pub limit: f64,
+    pub unit: Unit,
     /// The dwell the program has before the layer, and the one that keeps it safe (None:
     /// more than an hour), s.
     pub programmed_dwell_s: f64,
@@ -306,17 +308,29 @@ impl Alarm {
             ),
             None => "no dwell up to an hour brings it under".into(),
         };
+        let (at, layer, criterion) = (self.made_at_s, self.layer, &self.criterion);
+        let what = match self.unit {
+            Unit::Celsius => format!(
+                "would start on metal at {:.0} °C (95 %), {criterion} limit {:.0} °C",
+                self.predicted_p95, self.limit
+            ),
+            Unit::Millimetre => format!(
+                "would lay a melt pool {:.1} mm long (95 %), {criterion} limit {:.1} mm",
+                self.predicted_p95, self.limit
+            ),
+        };
         format!(
-            "alarm at t = {:.0} s: layer {} would start on metal at {:.0} °C (95 %), {} limit \
-             {:.0} °C; the program dwells {:.0} s, {advice}",
-            self.made_at_s,
-            self.layer,
-            self.predicted_p95_c,
-            self.criterion,
-            self.limit_c,
+            "alarm at t = {at:.0} s: layer {layer} {what}; the program dwells {:.0} s, {advice}",
             self.programmed_dwell_s
         )
     }
+}
+
+/// What an alarm's numbers are in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Unit {
+    Celsius,
+    Millimetre,
 }
 
 /// What a follow changes as it goes, beside the twin: what a checkpoint keeps.
@@ -620,10 +634,17 @@ impl<'a> Follower<'a> {
                 });
             }
         }
-        match (layer, next, self.twin.settings.tightest_limit()) {
-            (Some(_), Some(n), Some(limit)) => Ok(self.judge(at, n, limit)?.into_iter().collect()),
-            _ => Ok(Vec::new()),
+        let (Some(_), Some(n)) = (layer, next) else {
+            return Ok(Vec::new());
+        };
+        let mut alarms = Vec::new();
+        if let Some(limit) = self.twin.settings.tightest_limit() {
+            alarms.extend(self.judge(at, n, limit)?);
         }
+        if let Some(pool_m) = self.twin.settings.humping_pool_m {
+            alarms.extend(self.judge_pool(at, n, pool_m)?);
+        }
+        Ok(alarms)
     }
 
     /// Layer `n` judged from `at` against `limit` (its criterion, K), at the 95th percentile over
@@ -691,8 +712,50 @@ impl<'a> Follower<'a> {
             made_at_s: at,
             layer: n + 1,
             criterion: criterion.into(),
-            predicted_p95_c: judged - C,
-            limit_c: limit - C,
+            predicted_p95: judged - C,
+            limit: limit - C,
+            unit: Unit::Celsius,
+            programmed_dwell_s: programmed,
+            advised_dwell_s: extra.map(|e| programmed + e),
+        };
+        self.progress.alarms.push(alarm.clone());
+        Ok(Some(alarm))
+    }
+}
+
+impl Follower<'_> {
+    /// Layer `n` judged from `at` against the humping limit `pool_m`: the longest melt pool it
+    /// lays (the deposits whose metal is above the solidus behind the torch, as the dwell
+    /// planner measures it, `PointResult::pool_length`), at the 95th percentile over the
+    /// members run through it; the advice the least dwell before it (in 5 s steps) after which
+    /// the layer, run again, keeps under (a cooler part makes a shorter pool). An alarm where
+    /// it is over.
+    fn judge_pool(&mut self, at: f64, n: usize, pool_m: f64) -> Result<Option<Alarm>, Error> {
+        let l = self.layers[n];
+        let programmed = l.start_s - self.layers[n - 1].end_s;
+        let longest = |run: &ModelRun| -> f64 {
+            (l.first..=l.last)
+                .map(|i| run.points()[i].pool_length)
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        let p95 = |dwell_s: f64| -> Result<f64, Error> {
+            let members = self
+                .twin
+                .through_layer((l.start_s, l.end_s), dwell_s, &longest)?;
+            Ok(quantile(&members, 0.95))
+        };
+        let judged = p95(0.0)?;
+        if !judged.is_finite() || judged <= pool_m {
+            return Ok(None);
+        }
+        let extra = least_dwell(|d| Ok(p95(d)? <= pool_m), DWELL_STEP_S, MAX_DWELL_S)?;
+        let alarm = Alarm {
+            made_at_s: at,
+            layer: n + 1,
+            criterion: "humping".into(),
+            predicted_p95: judged * 1e3,
+            limit: pool_m * 1e3,
+            unit: Unit::Millimetre,
             programmed_dwell_s: programmed,
             advised_dwell_s: extra.map(|e| programmed + e),
         };

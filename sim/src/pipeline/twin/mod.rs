@@ -43,6 +43,8 @@ pub struct Settings {
     /// The strength limit (`[dwell] strength_loss_c`'s: the layer beneath below it when the
     /// torch returns), judged as the interpass limit is, K.
     pub strength_loss_k: Option<f64>,
+    /// The humping limit: a melt pool longer than this (m) is at risk (`[dwell]`'s π·W).
+    pub humping_pool_m: Option<f64>,
     pub seed: u64,
 }
 
@@ -59,6 +61,7 @@ impl Default for Settings {
             horizons_s: vec![60.0, 300.0],
             interpass_max_k: None,
             strength_loss_k: None,
+            humping_pool_m: None,
             seed: 1,
         }
     }
@@ -67,8 +70,8 @@ impl Default for Settings {
 impl Settings {
     /// The limit an alarm judges the next layer's start by: the lower of the interpass and the
     /// strength limits in force, with its criterion's name (both bound the metal the layer is
-    /// laid on, as `dwell` judges them; humping and the Bond number judge the pool, which the
-    /// twin does not forecast).
+    /// laid on, as `dwell` judges them; humping, the pool's length, is judged on its own:
+    /// `humping_pool_m`).
     pub fn tightest_limit(&self) -> Option<(&'static str, f64)> {
         [
             ("interpass", self.interpass_max_k),
