@@ -768,7 +768,8 @@ fn the_machine_log_wins_over_the_program() {
 /// The machine log in a file of its own (`[live.machine_log] file`), written by its own logger
 /// at half the probes' pace (so the readings wait for it, and the two files end at different
 /// moments): the same forecasts and alarms, to the byte, and the same account of the log, as
-/// with the arc's state in the probe file's rows.
+/// with the arc's state in the probe file's rows; and the same again when the probe logger
+/// stops for 8 s mid-build while the machine's goes on (the stall said on stderr).
 #[test]
 fn a_machine_log_in_its_own_file_is_followed_beside_the_probes() {
     let dir = scratch("follow_machine_file");
@@ -780,10 +781,10 @@ fn a_machine_log_in_its_own_file_is_followed_beside_the_probes() {
         (76.0, 84.0),
     ];
     let arc = |t: f64| u8::from(on.iter().any(|&(a, b)| (a..b).contains(&t)));
-    let run = |name: &str, own_file: bool| {
+    let run = |name: &str, own_file: bool, pause: Option<(usize, Duration)>| {
         let at = dir.join(name);
         std::fs::create_dir_all(&at).unwrap();
-        let (plain, lines) = small_wall(&at, "interpass_max_c = 100.0");
+        let (plain, lines) = small_wall(&at, "interpass_max_c = 100.0\nstall_s = 3.0");
         let time = |l: &String| -> f64 { l.split(',').next().unwrap().parse().unwrap() };
         let machine = match own_file {
             true => "[live.machine_log]\nfile = \"machine.csv\"\narc_on_column = 1\n",
@@ -800,7 +801,7 @@ fn a_machine_log_in_its_own_file_is_followed_beside_the_probes() {
                         .map(|l| format!("{},{}", time(l), arc(time(l)))),
                 );
                 vec![
-                    logger(at.join("log.csv"), lines, Duration::from_millis(5), None),
+                    logger(at.join("log.csv"), lines, Duration::from_millis(5), pause),
                     logger(at.join("machine.csv"), log, Duration::from_millis(10), None),
                 ]
             }
@@ -812,16 +813,24 @@ fn a_machine_log_in_its_own_file_is_followed_beside_the_probes() {
             }
         };
         let out = at.join("out");
-        let child = follow(&plain, &out, &["--until-idle-s", "3"]);
+        // Longer than the pause: neither file grows while the probes' is silent.
+        let idle = if pause.is_some() { "12" } else { "3" };
+        let child = follow(&plain, &out, &["--until-idle-s", idle]);
         writers.into_iter().for_each(|w| w.join().unwrap());
         let (ok, text) = finish(child, Duration::from_secs(300));
         assert!(ok, "{text}");
         let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();
         let v = json(&out.join("follow.json"));
-        (read("forecasts.csv"), read("alarms.csv"), v)
+        (read("forecasts.csv"), read("alarms.csv"), v, text)
     };
-    let (rows, rows_alarms, in_rows) = run("in_rows", false);
-    let (own, own_alarms, in_file) = run("own_file", true);
+    let (rows, rows_alarms, in_rows, _) = run("in_rows", false, None);
+    let (own, own_alarms, in_file, _) = run("own_file", true, None);
+    // The probe logger silent for 8 s mid-build while the machine's goes on: said, and waited
+    // for (the machine's rows wait for the readings), to the same forecasts.
+    let pause = Some((150, Duration::from_secs(8)));
+    let (paused, _, _, text) = run("probes_paused", true, pause);
+    assert!(text.contains("no new reading for"), "{text}");
+    assert!(paused == rows, "the forecasts differ after the pause");
     assert_eq!(in_file["machine_log"], in_rows["machine_log"]);
     assert_eq!(
         in_file["machine_log"]["stops_mid_pass"], 1,

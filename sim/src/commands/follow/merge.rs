@@ -1,10 +1,10 @@
 //! Two files written side by side, the probe logger's and the machine's log
 //! (`[live.machine_log] file`), fed to the twin as one stream in time order. A row goes once
 //! the other file has been read to its time (the machine's first on a tie: the engine takes a
-//! machine row before the probe row of the same time), or once the other file has said
-//! nothing for `stall_s` (its rows that come later than what was fed are counted and dropped),
-//! or when the run ends. So a forecast made at t uses no row of either file after t, whichever
-//! file the cell wrote first.
+//! machine row before the probe row of the same time); a reading also once the machine's file
+//! has said nothing for `stall_s` (its rows that come later than what was fed are counted and
+//! dropped); everything when the run ends. So a forecast made at t uses no row of either file
+//! after t, whichever file the cell wrote first.
 
 use super::Row;
 use super::tail::Mark;

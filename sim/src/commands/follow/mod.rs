@@ -300,7 +300,8 @@ pub fn run(
     INTERRUPTED.store(false, Ordering::SeqCst);
     let longest = live.twin.horizons_s.iter().copied().fold(0.0, f64::max);
     let clock = Instant::now();
-    let (mut last_new, mut last_rewrite) = (Instant::now(), Instant::now());
+    let (mut last_new, mut last_any, mut last_rewrite) =
+        (Instant::now(), Instant::now(), Instant::now());
     let mut stalled = false;
     let mut merge = Merge::new();
     // The program's end as the machine log has moved it, where the build has one.
@@ -317,7 +318,7 @@ pub fn run(
         for line in said {
             eprintln!("follow: {source_name}: {line}");
         }
-        let mut fresh = match &brought {
+        let fresh = match &brought {
             Brought::Lines(l) => !l.is_empty(),
             Brought::Rows(r) => !r.is_empty(),
         };
@@ -350,11 +351,15 @@ pub fn run(
                 .into_iter()
                 .for_each(|r| merge.probe(Mark::default(), r)),
         }
+        let mut machine_fresh = false;
         if let (Some(m), Some(log)) = (machine.as_mut(), live.machine_log.as_ref()) {
-            fresh |= m.look(log, live.stall_s, &mut counters, &mut merge)?;
+            machine_fresh = m.look(log, live.stall_s, &mut counters, &mut merge)?;
         }
+        // The machine's rows wait for the readings even while the probe file stalls (the twin
+        // moves on readings alone; a row fed early would reach back into forecasts made at
+        // earlier moments); the readings wait for the machine's file unless it stalls.
         let machine_waits = machine.as_ref().is_some_and(|m| !m.stalled);
-        while let Some(next) = merge.next(!stalled, machine_waits) {
+        while let Some(next) = merge.next(true, machine_waits) {
             // Rows past the end are left unread: where a run ends does not hang on how the
             // sources were cut into looks.
             if done(&follower) {
@@ -388,14 +393,18 @@ pub fn run(
         if done(&follower) {
             break "the data reached the program's end and the longest horizon";
         }
+        // Idle counts from the end of the work on what came, not from its reading: a twin that
+        // fell behind must not take its own lag for a silent logger. The probe file stalls on
+        // its own silence (a machine log still growing beside it does not hide that); the run
+        // is idle when neither file grows.
         if fresh {
-            // Idle counts from the end of the work on what came, not from its reading: a twin
-            // that fell behind must not take its own lag for a silent logger.
             last_new = Instant::now();
-            continue;
+        }
+        if fresh || machine_fresh {
+            last_any = Instant::now();
         }
         let idle = last_new.elapsed().as_secs_f64();
-        if until_idle_s.is_some_and(|u| idle >= u) {
+        if until_idle_s.is_some_and(|u| last_any.elapsed().as_secs_f64() >= u) {
             break "nothing new for --until-idle-s";
         }
         if !stalled && idle >= live.stall_s {
@@ -410,7 +419,9 @@ pub fn run(
         if stalled && let Some(s) = counters.stalls.last_mut() {
             s.1 = idle;
         }
-        std::thread::sleep(POLL);
+        if !(fresh || machine_fresh) {
+            std::thread::sleep(POLL);
+        }
     };
     // What was read and held for the other file goes now, in time order.
     while let Some(next) = merge.next(false, false) {
