@@ -105,6 +105,7 @@ fn main() {
         snapshot_times: vec![],
         traces: vec![],
         trace_hottest: false,
+        local_steps: None,
     };
     let t = Instant::now();
     let r = WallModel::build(&deps, &ws)

@@ -6,6 +6,7 @@
 //!
 //! - [`material`]: properties and the enthalpy–temperature relation (latent heat included).
 //! - [`network`]: lumped nodes and conductances stepped by backward Euler, energy booked exactly.
+//! - [`rates`]: local time stepping, the nodes far from the arc stepped at their own rates.
 //! - [`run`]: the contract both heat models serve ([`HeatRun`], [`HeatModel`]) and the types
 //!   they share: per-point results, what a point lies on, field snapshots, the plate.
 //! - [`wall`]: the thin-wall model on the path's grid, with the substrate plate.
@@ -15,6 +16,7 @@
 pub mod error;
 pub mod material;
 pub mod network;
+pub mod rates;
 pub mod run;
 pub mod schedule;
 pub mod voxel;

@@ -14,6 +14,7 @@
 //! is across scenarios instead.
 
 use crate::material::Material;
+use crate::rates::{LocalSteps, Rates, Torch};
 use std::sync::Arc;
 
 /// Stefan–Boltzmann constant, W/(m² K⁴).
@@ -81,8 +82,17 @@ pub struct Network {
     /// Solver statistics: steps and CG iterations.
     pub steps: usize,
     pub iterations: usize,
+    /// Node steps taken (a node stepped once counts one): the model's work, whatever the
+    /// rates.
+    #[serde(default)]
+    pub node_steps: u64,
     h_ambient: f64,
     scratch: Scratch,
+    /// Local time stepping, where the nodes far from the arc step at their own rates.
+    #[serde(default)]
+    rates: Option<Rates>,
+    #[serde(skip)]
+    stepped: Vec<(usize, usize, f64)>,
 }
 
 /// The step's workspace, sized once: no allocation in a time step. A checkpoint copies only
@@ -114,6 +124,9 @@ struct Scratch {
     /// Conductance of each adjacency entry this step (0 to inactive neighbours).
     #[serde(skip)]
     edge_g: Vec<f64>,
+    /// Conductance of each adjacency entry to a held (coarser) node this step, else 0.
+    #[serde(skip)]
+    held: Vec<f64>,
     /// The active nodes as runs of consecutive indices [start, end): the loops over them are
     /// plain slices the compiler vectorises.
     #[serde(skip)]
@@ -181,8 +194,11 @@ impl Network {
             ledger: Ledger::default(),
             steps: 0,
             iterations: 0,
+            node_steps: 0,
             h_ambient,
             scratch: Scratch::default(),
+            rates: None,
+            stepped: Vec::new(),
         }
     }
 
@@ -206,6 +222,12 @@ impl Network {
         self.active[i] = true;
         self.h[i] = self.material.enthalpy(t);
         self.t[i] = t;
+        if let Some(r) = &mut self.rates {
+            r.join(i);
+        }
+        if let Some(last) = self.scratch.last_t.get_mut(i) {
+            *last = t;
+        }
         self.ledger.deposited += self.mass[i] * (self.h[i] - self.h_ambient);
     }
 
@@ -219,14 +241,21 @@ impl Network {
                 self.t[i] = ambient;
             }
         }
+        if let Some(r) = &mut self.rates {
+            self.ledger.quenched += r.acc.iter().sum::<f64>();
+            r.acc.fill(0.0);
+        }
     }
 
-    /// Enthalpy stored above ambient in the active nodes, J.
+    /// Enthalpy stored above ambient in the active nodes, J (with the heat booked to a node
+    /// far from the arc and not yet in its enthalpy).
     pub fn stored(&self) -> f64 {
-        (0..self.len())
-            .filter(|&i| self.active[i])
-            .map(|i| self.mass[i] * (self.h[i] - self.h_ambient))
-            .sum()
+        let booked = self.rates.as_ref().map_or(0.0, |r| r.acc.iter().sum());
+        booked
+            + (0..self.len())
+                .filter(|&i| self.active[i])
+                .map(|i| self.mass[i] * (self.h[i] - self.h_ambient))
+                .sum::<f64>()
     }
 
     /// (energy in − stored − lost) / energy in.
@@ -239,11 +268,30 @@ impl Network {
         }
     }
 
-    /// Advance by `dt` seconds with `power[i]` watts into node i (inactive nodes ignore it).
+    /// Step the nodes far from the arc at their own rates from here on ([`crate::rates`]).
+    pub fn local_steps(&mut self, settings: LocalSteps) {
+        self.rates = Some(Rates::new(settings, &self.active));
+    }
+
+    /// Whether the nodes far from the arc are stepped at their own rates.
+    pub fn is_local(&self) -> bool {
+        self.rates.is_some()
+    }
+
+    /// The nodes the last step moved, as index runs [start, end) with the time each run
+    /// advanced, s: every active node after [`Network::step`], those near the torch and the
+    /// levels that fell due after [`Network::step_near`].
+    pub fn stepped(&self) -> &[(usize, usize, f64)] {
+        &self.stepped
+    }
+
+    /// Advance every active node by `dt` seconds with `power[i]` watts into node i (inactive
+    /// nodes ignore it), after bringing every level to the same time where the nodes far from
+    /// the arc step at their own rates.
     pub fn step(&mut self, dt: f64, power: &[f64]) {
-        let n = self.len();
+        self.sync();
         let mut ws = std::mem::take(&mut self.scratch);
-        ws.resize(n, self.adj.len());
+        ws.resize(self.len(), self.adj.len());
         // Active nodes only: switched-off ones are outside the system altogether.
         ws.runs.clear();
         for (i, &on) in self.active.iter().enumerate() {
@@ -252,6 +300,115 @@ impl Network {
                 _ if on => ws.runs.push((i, i + 1)),
                 _ => {}
             }
+        }
+        self.stepped.clear();
+        self.solve(&mut ws, dt, Some(power), Scope::All);
+        ws.last_dt = dt;
+        self.scratch = ws;
+        if let Some(r) = &mut self.rates {
+            r.elapsed += dt;
+            let now = r.elapsed;
+            r.last.fill(now);
+        }
+    }
+
+    /// As [`Network::step`], then every node sorted again by where the torch is and will be (a
+    /// travel: the torch is somewhere new).
+    pub fn step_whole(&mut self, dt: f64, power: &[f64], torch: &impl Torch) {
+        self.step(dt, power);
+        if let Some(rates) = &mut self.rates {
+            let top = rates.settings.levels;
+            let stable = stability(
+                &self.start,
+                &self.adj,
+                &self.active,
+                &self.mass,
+                &self.t,
+                &self.material,
+            );
+            for i in rates.sort(top, torch, stable) {
+                self.scratch.last_t[i as usize] = self.t[i as usize];
+            }
+        }
+    }
+
+    /// Advance by `dt` seconds with `power[i]` watts into node i (a node near the torch): the
+    /// nodes near it take the step, each coarser level steps when its period falls due
+    /// ([`crate::rates`]), and the levels that stepped are sorted again by where the torch is
+    /// and will be. Without local steps, as [`Network::step`].
+    pub fn step_near(&mut self, dt: f64, power: &[f64], torch: &impl Torch) {
+        let Some(levels) = self.rates.as_ref().map(|r| r.settings.levels) else {
+            return self.step(dt, power);
+        };
+        let mut ws = std::mem::take(&mut self.scratch);
+        ws.resize(self.len(), self.adj.len());
+        self.stepped.clear();
+        let rates = self.rates.as_mut().expect("local steps");
+        rates.runs_of(0, &mut ws.runs);
+        self.solve(&mut ws, dt, Some(power), Scope::Level(0));
+        ws.last_dt = dt;
+        let rates = self.rates.as_mut().expect("local steps");
+        rates.elapsed += dt;
+        rates.last[0] = rates.elapsed;
+        let mut top = 0;
+        for m in 1..=levels {
+            let rates = self.rates.as_mut().expect("local steps");
+            if !rates.due(m) {
+                break;
+            }
+            let tau = rates.elapsed - rates.last[usize::from(m)];
+            rates.last[usize::from(m)] = rates.elapsed;
+            top = m;
+            if !rates.members[usize::from(m)].is_empty() {
+                rates.runs_of(m, &mut ws.runs);
+                self.solve(&mut ws, tau, None, Scope::Level(m));
+            }
+        }
+        if top > 0 {
+            let rates = self.rates.as_mut().expect("local steps");
+            let stable = stability(
+                &self.start,
+                &self.adj,
+                &self.active,
+                &self.mass,
+                &self.t,
+                &self.material,
+            );
+            for i in rates.sort(top, torch, stable) {
+                // A node that joins level 0 starts the trend from where it is.
+                ws.last_t[i as usize] = self.t[i as usize];
+            }
+        }
+        self.scratch = ws;
+    }
+
+    /// Bring every level to the network's time (each coarser level steps over what it owes,
+    /// finest first, so that each takes the heat the finer ones booked to it).
+    pub fn sync(&mut self) {
+        let Some(levels) = self.rates.as_ref().map(|r| r.settings.levels) else {
+            return;
+        };
+        let mut ws = std::mem::take(&mut self.scratch);
+        ws.resize(self.len(), self.adj.len());
+        for m in 1..=levels {
+            let rates = self.rates.as_mut().expect("local steps");
+            let tau = rates.elapsed - rates.last[usize::from(m)];
+            rates.last[usize::from(m)] = rates.elapsed;
+            if tau > 0.0 && !rates.members[usize::from(m)].is_empty() {
+                rates.runs_of(m, &mut ws.runs);
+                self.solve(&mut ws, tau, None, Scope::Level(m));
+            }
+        }
+        self.scratch = ws;
+    }
+
+    /// One backward-Euler step of `dt` over the nodes of `ws.runs` (the active nodes, or one
+    /// level's): the level's own edges implicit, a coarser neighbour held at its temperature and
+    /// the heat across booked to it, a finer neighbour's heat taken from what it booked.
+    fn solve(&mut self, ws: &mut Scratch, dt: f64, power: Option<&[f64]>, scope: Scope) {
+        for &(a, b) in &ws.runs {
+            self.stepped.push((a, b, dt));
+            self.node_steps += (b - a) as u64;
         }
         let sur = self.surroundings;
         let (mat, t, active, mass, exposed, contact) = (
@@ -262,6 +419,24 @@ impl Network {
             &self.exposed,
             &self.contact,
         );
+        let (level, acc): (&[u8], &mut [f64]) = match &mut self.rates {
+            Some(Rates { level, acc, .. }) => (level, acc),
+            None => (&[], &mut []),
+        };
+        let class = |j: usize| -> Class {
+            match scope {
+                _ if !active[j] => Class::Off,
+                Scope::All => Class::Implicit,
+                Scope::Level(l) => match level[j].cmp(&l) {
+                    std::cmp::Ordering::Equal => Class::Implicit,
+                    std::cmp::Ordering::Greater => Class::Held,
+                    std::cmp::Ordering::Less => Class::Off,
+                },
+            }
+        };
+        let source = |i: usize, acc: &[f64]| {
+            power.map_or(0.0, |p| p[i]) + acc.get(i).map_or(0.0, |a| a / dt)
+        };
         // Lagged coefficients: conductivity per node, conductance per edge, loss coefficient
         // (convection, radiation, table), then the backward-Euler diagonal and right-hand side.
         for i in nodes(&ws.runs) {
@@ -269,33 +444,37 @@ impl Network {
         }
         for i in nodes(&ws.runs) {
             let (a, b) = (self.start[i] as usize, self.start[i + 1] as usize);
-            let mut g_sum = 0.0;
+            let (mut g_sum, mut held) = (0.0, 0.0);
             for e in a..b {
                 let (j, g) = self.adj[e];
-                let ge = if active[j as usize] {
-                    conductance(ws.cond[i], ws.cond[j as usize], g)
-                } else {
-                    0.0
+                let j = j as usize;
+                let (ge, gh) = match class(j) {
+                    Class::Implicit => (conductance(ws.cond[i], ws.cond[j], g), 0.0),
+                    Class::Held => (0.0, conductance(ws.cond[i], mat.conductivity(t[j]), g)),
+                    Class::Off => (0.0, 0.0),
                 };
                 ws.edge_g[e] = ge;
-                g_sum += ge;
+                ws.held[e] = gh;
+                g_sum += ge + gh;
+                held += gh * t[j];
             }
             let loss = loss_coefficient(&sur, t[i]) * exposed[i] + sur.table_w_m2k * contact[i];
             let cap = mass[i] * mat.apparent_heat(t[i]) / dt;
             ws.cap[i] = cap;
             ws.diag[i] = cap + g_sum + loss;
-            ws.rhs[i] = cap * t[i] + loss * sur.ambient_k + power[i];
+            ws.rhs[i] = cap * t[i] + loss * sur.ambient_k + source(i, acc) + held;
         }
-        // Start from the last step's trend, which halves the iterations.
-        let trend = if ws.last_dt > 0.0 {
-            dt / ws.last_dt
-        } else {
-            0.0
+        // Start from the last step's trend, which halves the iterations; a coarser level's
+        // step, far longer, starts where it is.
+        let trend = match scope {
+            Scope::Level(m) if m > 0 => 0.0,
+            _ if ws.last_dt > 0.0 => dt / ws.last_dt,
+            _ => 0.0,
         };
         for i in nodes(&ws.runs) {
             ws.x[i] = t[i] + trend * (t[i] - ws.last_t[i]);
         }
-        self.iterations += cg(&self.start, &self.column, &mut ws, CG_TOLERANCE_K);
+        self.iterations += cg(&self.start, &self.column, ws, CG_TOLERANCE_K);
         // The capacity above is h(T)'s slope at the step's start. Where h(T) bends over the
         // step (leaving the mushy range, the magnetic peak) that slope can be many times the
         // secant, and a capacity above the secant books more heat than the temperature change
@@ -339,23 +518,36 @@ impl Network {
             // The corrected rows moved their neighbours' balance: solve the step again with
             // the secant capacities, from the corrected temperatures, to a looser tolerance
             // (the energy update is exact whatever the solve's accuracy).
-            self.iterations += cg(&self.start, &self.column, &mut ws, SECANT_CG_TOLERANCE_K);
+            self.iterations += cg(&self.start, &self.column, ws, SECANT_CG_TOLERANCE_K);
         }
-        // Conservative update from the solved temperatures.
+        // Conservative update from the solved temperatures: what crosses to a held node is
+        // booked to it, so that it gains what this level loses.
+        let keeps_trend = !matches!(scope, Scope::Level(m) if m > 0);
         let mut sums = [0.0; 4];
         for i in nodes(&ws.runs) {
             let (a, b) = (self.start[i] as usize, self.start[i + 1] as usize);
-            let mut flux = power[i];
+            let mut flux = source(i, acc);
             for e in a..b {
-                flux += ws.edge_g[e] * (ws.x[self.column[e] as usize] - ws.x[i]);
+                let j = self.column[e] as usize;
+                flux += ws.edge_g[e] * (ws.x[j] - ws.x[i]);
+                if ws.held[e] != 0.0 {
+                    let across = ws.held[e] * (t[j] - ws.x[i]);
+                    flux += across;
+                    acc[j] -= across * dt;
+                }
+            }
+            if let Some(a) = acc.get_mut(i) {
+                *a = 0.0;
             }
             let dta = ws.x[i] - sur.ambient_k;
             let conv = sur.convection_w_m2k * exposed[i] * dta;
             let rad = radiation_coefficient(&sur, t[i]) * exposed[i] * dta;
             let table = sur.table_w_m2k * contact[i] * dta;
-            ws.last_t[i] = t[i];
+            if keeps_trend {
+                ws.last_t[i] = t[i];
+            }
             self.h[i] += dt * (flux - conv - rad - table) / mass[i];
-            sums[0] += power[i];
+            sums[0] += power.map_or(0.0, |p| p[i]);
             sums[1] += conv;
             sums[2] += rad;
             sums[3] += table;
@@ -363,15 +555,62 @@ impl Network {
         for i in nodes(&ws.runs) {
             self.t[i] = self.material.temperature(self.h[i]);
         }
-        ws.last_dt = dt;
         self.ledger.source += dt * sums[0];
         self.ledger.convection += dt * sums[1];
         self.ledger.radiation += dt * sums[2];
         self.ledger.table += dt * sums[3];
-        self.steps += 1;
-        self.scratch = ws;
+        if !matches!(scope, Scope::Level(m) if m > 0) {
+            self.steps += 1;
+        }
     }
 }
+
+/// What one solve covers: every active node, or one level's.
+#[derive(Clone, Copy)]
+enum Scope {
+    All,
+    Level(u8),
+}
+
+/// An edge in a solve: both ends in it, the far end held (a coarser level), or left out (off,
+/// or a finer level whose heat came booked).
+enum Class {
+    Implicit,
+    Held,
+    Off,
+}
+
+/// Whether node i may step at period `p` given its neighbours' levels (`level`, i's own at
+/// `m`): held neighbours' heat is booked to it explicitly, which keeps stable while the
+/// conductance to finer neighbours is at most 2C/p plus the conductance to the neighbours it
+/// steps with or is held by (the booked step's amplification |g_f·p/C − 1| against
+/// 1 + g_c·p/C).
+fn stability<'a>(
+    start: &'a [u32],
+    adj: &'a [(u32, f64)],
+    active: &'a [bool],
+    mass: &'a [f64],
+    t: &'a [f64],
+    material: &'a Material,
+) -> impl Fn(usize, u8, f64, &[u8]) -> bool + 'a {
+    move |i, m, p, level| {
+        let (mut finer, mut coarser) = (0.0, 0.0);
+        for &(j, g) in &adj[start[i] as usize..start[i + 1] as usize] {
+            let j = j as usize;
+            if !active[j] {
+                continue;
+            }
+            let k = material.conductivity(t[i]).min(material.conductivity(t[j]));
+            if level[j] < m {
+                finer += k * g;
+            } else {
+                coarser += k * g;
+            }
+        }
+        finer <= 2.0 * mass[i] * material.apparent_heat(t[i]) / p + coarser
+    }
+}
+
 
 impl Clone for Scratch {
     fn clone(&self) -> Scratch {
@@ -401,6 +640,7 @@ impl Scratch {
             v.resize(n, 0.0);
         }
         self.edge_g.resize(n_adj, 0.0);
+        self.held.resize(n_adj, 0.0);
     }
 }
 

@@ -10,6 +10,7 @@
 use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Network, Surroundings};
+use crate::rates::{LocalSteps, Reach, Torch};
 use crate::run::{
     Burn, Cells, CoolingSteps, Drops, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult,
     Snapshot, Support, Trace, replay,
@@ -49,6 +50,10 @@ pub struct WallSettings {
     pub probes: Vec<[f64; 3]>,
     /// Least time between two kept probe samples, s (0: every step).
     pub probe_every: f64,
+    /// The nodes far from the arc stepped at their own rates ([`crate::rates`]); none: every
+    /// node at every step (the reference).
+    #[serde(default)]
+    pub local_steps: Option<LocalSteps>,
 }
 
 struct Layout {
@@ -353,6 +358,10 @@ pub struct WallRun {
     /// Deposits laid when the nodes were last searched: none is switched on between deposits.
     probes_searched_at: Option<usize>,
     power: Vec<f64>,
+    /// The nodes `power` heats this arc (the rest stay 0).
+    powered: Vec<usize>,
+    /// Where the torch will be, where the nodes far from the arc step at their own rates.
+    reach: Option<Arc<Reach>>,
     below: Arc<Vec<usize>>,
     /// Time now, s; deposits laid so far.
     now: f64,
@@ -382,6 +391,13 @@ impl WallRun {
             }
         }
         let below = std::mem::take(&mut model.below);
+        let reach = s.local_steps.map(|local| {
+            model.network.local_steps(local);
+            let from: Vec<[f64; 3]> = (0..deps.len()).map(|i| segment_start(deps, i)).collect();
+            let to: Vec<[f64; 3]> = deps.iter().map(|d| d.position).collect();
+            let arc: Vec<f64> = deps.iter().map(|d| d.arc_time).collect();
+            Arc::new(Reach::new(&from, &to, &arc))
+        });
         let mut snap = s.snapshot_times.clone();
         snap.sort_by(f64::total_cmp);
         let mut settings = s.clone();
@@ -402,6 +418,8 @@ impl WallRun {
             probes_searched_at: None,
             cooling_step: 1.0,
             power: vec![0.0; n],
+            powered: Vec::new(),
+            reach,
             below: Arc::new(below),
             now: deps.first().map_or(0.0, |d| d.arc_start()),
             laid: 0,
@@ -412,6 +430,11 @@ impl WallRun {
             settings: Arc::new(settings),
             model,
         }
+    }
+
+    /// Node steps taken so far ([`Network::node_steps`]).
+    pub fn node_steps(&self) -> u64 {
+        self.model.network.node_steps
     }
 
     /// The temperatures of the nodes, K (wall nodes first, then the plate).
@@ -478,13 +501,15 @@ impl WallRun {
         }
     }
 
-    fn observe(&mut self, dt: f64) {
+    fn observe(&mut self) {
         let net = &self.model.network;
         let thr = self.settings.hot_threshold;
-        for k in 0..net.len() {
-            if net.active[k] {
+        // The nodes the step moved, each by its own time (all of them but where the nodes far
+        // from the arc step at their own rates).
+        for &(a, b, tau) in net.stepped() {
+            for k in a..b {
                 if net.t[k] > thr {
-                    self.time_above[k] += dt;
+                    self.time_above[k] += tau;
                 }
                 self.peak[k] = self.peak[k].max(net.t[k]);
             }
@@ -546,7 +571,9 @@ impl HeatRun for WallRun {
             q = 0.0;
             self.underpowered += 1;
         }
-        self.power.iter_mut().for_each(|p| *p = 0.0);
+        for k in self.powered.drain(..) {
+            self.power[k] = 0.0;
+        }
         let weights = footprint_weights(m, node, d.position, footprint);
         let total: f64 = weights.iter().map(|w| w.1).sum();
         // Preheats read during this arc: interpolated between its start and its end.
@@ -559,13 +586,29 @@ impl HeatRun for WallRun {
             if total > 0.0 {
                 for (k, w) in &weights {
                     self.power[*k] += q / arc * w / total;
+                    self.powered.push(*k);
                 }
             } else {
                 self.power[node] += q / arc;
+                self.powered.push(node);
             }
-            m.network.step(arc, &self.power);
+            // Where the nodes far from the arc step at their own rates, the levels were sorted
+            // by how far the torch runs in each level's period as scheduled: a travel between
+            // tracks, or an arc run faster than scheduled, is stepped whole.
+            let whole = d.start.is_some() || arc < d.arc_time * (1.0 - 1e-9);
+            let torch = TorchOnPath {
+                reach: self.reach.as_deref(),
+                positions: &m.positions,
+                at: i,
+                position: d.position,
+            };
+            if whole {
+                m.network.step_whole(arc, &self.power, &torch);
+            } else {
+                m.network.step_near(arc, &self.power, &torch);
+            }
             self.now += arc;
-            self.observe(arc);
+            self.observe();
         }
         for (&(k, f), t0) in self.probes_at[i].iter().zip(before) {
             let t1 = self.model.network.t[self.below[k]];
@@ -596,14 +639,16 @@ impl HeatRun for WallRun {
         if duration <= 1e-9 {
             return Ok(());
         }
-        self.power.iter_mut().for_each(|p| *p = 0.0);
+        for k in self.powered.drain(..) {
+            self.power[k] = 0.0;
+        }
         let end = self.now + duration;
         let mut dt = self.cooling_step.min(duration);
         while self.now < end - 1e-9 {
             let step = dt.min(end - self.now);
             self.model.network.step(step, &self.power);
             self.now += step;
-            self.observe(step);
+            self.observe();
             dt = (dt * 2.0).min(self.settings.max_step);
         }
         self.cooling_step = dt;
@@ -686,6 +731,25 @@ impl HeatRun for WallRun {
                 cg_iterations: net.iterations,
             },
         }
+    }
+}
+
+/// The torch on deposit `at` of the path, for sorting the nodes into levels.
+struct TorchOnPath<'a> {
+    reach: Option<&'a Reach>,
+    positions: &'a [[f64; 3]],
+    at: usize,
+    position: [f64; 3],
+}
+
+impl Torch for TorchOnPath<'_> {
+    fn near(&self, i: usize, d: f64) -> bool {
+        dist(self.positions[i], self.position) <= d
+    }
+
+    fn clear_of(&self, i: usize, d: f64, horizon: f64) -> bool {
+        self.reach
+            .is_some_and(|r| !r.comes_within(self.positions[i], d, self.at, horizon))
     }
 }
 

@@ -16,7 +16,7 @@ fn schedule() -> Vec<Deposit> {
 
 /// The thin wall, the voxel model, and the voxel model on a coarsened plate (its top coarse
 /// away from the helix: 8 mm is four cells).
-fn models(material: Material) -> [HeatModel; 3] {
+fn models(material: Material) -> [HeatModel; 4] {
     let surroundings = Surroundings {
         ambient_k: 293.15,
         convection_w_m2k: 15.0,
@@ -48,22 +48,34 @@ fn models(material: Material) -> [HeatModel; 3] {
         source: thermal::voxel::HeatSource::DoubleEllipsoid,
         coarse_plate: false,
     };
+    let wall = WallSettings {
+        material: material.clone(),
+        surroundings,
+        plate: plate.clone(),
+        min_node: 3e-3,
+        deposit_temperature: 1823.15,
+        footprint: 5e-3,
+        lead: 10e-3,
+        hot_threshold: 873.15,
+        max_step: 30.0,
+        probes: vec![],
+        probe_every: 0.0,
+        snapshot_times: vec![5.0, 25.0],
+        traces: vec![],
+        trace_hottest: false,
+        local_steps: None,
+    };
     [
+        HeatModel::ThinWall(wall.clone()),
+        // The same wall with the nodes far from the arc at their own rates.
         HeatModel::ThinWall(WallSettings {
-            material: material.clone(),
-            surroundings,
-            plate: plate.clone(),
-            min_node: 3e-3,
-            deposit_temperature: 1823.15,
-            footprint: 5e-3,
-            lead: 10e-3,
-            hot_threshold: 873.15,
-            max_step: 30.0,
-            probes: vec![],
-            probe_every: 0.0,
-            snapshot_times: vec![5.0, 25.0],
-            traces: vec![],
-            trace_hottest: false,
+            local_steps: Some(thermal::rates::LocalSteps {
+                near: 0.02,
+                period: 1.0,
+                levels: 5,
+                age_share: 0.1,
+            }),
+            ..wall
         }),
         HeatModel::Voxel(voxel.clone()),
         HeatModel::Voxel(VoxelSettings {
@@ -480,7 +492,7 @@ fn the_hottest_metal_bounds_every_trace_and_reaches_the_highest_peak() {
 #[test]
 fn a_probe_reads_once_metal_is_there() {
     let deps = schedule();
-    let mut model = models(Material::g3si())[1].clone();
+    let mut model = models(Material::g3si())[2].clone();
     let at = deps[5].position;
     model.set_probes(vec![at, [1.0, 1.0, 1.0]], 0.5);
     let r = model.simulate(&deps).unwrap();
@@ -504,7 +516,7 @@ fn a_probe_reads_once_metal_is_there() {
 #[test]
 fn a_disc_plate_is_round_on_voxels_and_refused_by_the_thin_wall() {
     let deps = schedule();
-    let [mut wall, mut voxel, _] = models(Material::g3si());
+    let [mut wall, _, mut voxel, _] = models(Material::g3si());
     let cells = |m: &HeatModel| match m.simulate(&deps).unwrap().cells {
         thermal::Cells::Voxel { voxels, .. } => voxels,
         _ => unreachable!(),
@@ -536,7 +548,7 @@ fn a_disc_plate_is_round_on_voxels_and_refused_by_the_thin_wall() {
 #[test]
 fn a_plate_of_its_own_material_on_voxels_and_refused_by_the_thin_wall() {
     let deps = schedule();
-    let [mut wall, mut voxel, _] = models(Material::g3si());
+    let [mut wall, _, mut voxel, _] = models(Material::g3si());
     let same = voxel.simulate(&deps).unwrap();
     let copper = Material::constant(8960.0, 385.0, 390.0, 1356.0, 2.05e5);
     voxel.set_plate_material(Some(copper));
@@ -702,7 +714,7 @@ fn losses_set_mid_run_act_from_then_on() {
 #[test]
 fn a_voxel_set_by_assimilation_is_booked_and_felt() {
     let deps = schedule();
-    let [_, voxel, _] = models(Material::g3si());
+    let [_, _, voxel, _] = models(Material::g3si());
     let mut run = voxel.start(&deps).unwrap();
     for i in 0..40 {
         run.deposit(i, 0.0).unwrap();

@@ -55,6 +55,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         snapshot_times: vec![],
         traces: vec![],
         trace_hottest: false,
+        local_steps: None,
     };
     let wall = WallModel::build(&deps, &ws)
         .unwrap()

@@ -5,6 +5,7 @@ use super::beads::{Bead, Beads};
 use super::params::{Material, Process, ThermalModel, ThermalSettings};
 use planner::plan::Plan;
 use thermal::network::Surroundings;
+use thermal::rates::LocalSteps;
 use thermal::schedule::{Deposit, DropPart};
 use thermal::voxel::VoxelSettings;
 use thermal::wall::WallSettings;
@@ -211,6 +212,7 @@ pub fn heat_model_of(
             snapshot_times,
             traces,
             trace_hottest: false,
+            local_steps: t.local_steps.then(|| local_steps(t)),
         }),
         ThermalModel::Voxel => HeatModel::Voxel(VoxelSettings {
             material,
@@ -229,6 +231,19 @@ pub fn heat_model_of(
             source: thermal::voxel::HeatSource::DoubleEllipsoid,
             coarse_plate: t.coarse_plate,
         }),
+    }
+}
+
+/// The thin wall's local time stepping for these settings: the near zone holds the lead and the
+/// footprint two nodes beyond.
+fn local_steps(t: &ThermalSettings) -> LocalSteps {
+    use super::params::documented as d;
+    let near = (d::LOCAL_NEAR_MM * 1e-3).max(t.lead_m.max(t.footprint_m) + 2.0 * t.node_m);
+    LocalSteps {
+        near,
+        period: d::LOCAL_PERIOD_S,
+        levels: d::LOCAL_LEVELS,
+        age_share: d::LOCAL_AGE_SHARE,
     }
 }
 

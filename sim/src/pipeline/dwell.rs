@@ -1340,6 +1340,12 @@ mod tests {
             snapshot_times: vec![],
             traces: vec![],
             trace_hottest: false,
+            local_steps: Some(thermal::rates::LocalSteps {
+                near: 0.02,
+                period: 1.0,
+                levels: 5,
+                age_share: 0.1,
+            }),
         };
         let mut run = WallRun::new(
             WallModel::build(&deps, &settings).unwrap(),

@@ -463,6 +463,7 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         plate_disc,
         lead_m: t.lead_mm * MM,
         coarse_plate: t.coarse_plate,
+        local_steps: t.local_steps,
     };
     settings.check().map_err(|e| c.invalid(e))?;
     Ok(settings)

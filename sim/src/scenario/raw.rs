@@ -294,6 +294,8 @@ pub struct RawThermal {
     pub plate_shape: String,
     /// Voxel model: the plate's cells merged 2 × 2 × 2 away from the metal laid on it.
     pub coarse_plate: bool,
+    /// Thin wall: the nodes far from the arc stepped at their own, longer rates.
+    pub local_steps: bool,
 }
 
 impl Default for RawThermal {
@@ -315,6 +317,7 @@ impl Default for RawThermal {
             voxel_mm: d::VOXEL_MM,
             plate_shape: "box".into(),
             coarse_plate: false,
+            local_steps: true,
         }
     }
 }

@@ -133,6 +133,14 @@ pub mod documented {
     pub const HOT_REFERENCE_C: f64 = 20.0;
     pub const HOT_MIN_FACTOR: f64 = 0.5;
     pub const STICKOUT_MM: f64 = 15.0;
+    /// Thin wall's local time stepping (docs/PHYSICS.md "Local time stepping"): every node
+    /// within this of the torch (and of the lead and footprint, two nodes beyond) takes every
+    /// step; level 1 steps every second, level m every 2^(m−1) s up to 128 s; a node steps at
+    /// most every 5 % of the time since the torch was last near it.
+    pub const LOCAL_NEAR_MM: f64 = 25.0;
+    pub const LOCAL_PERIOD_S: f64 = 1.0;
+    pub const LOCAL_LEVELS: u8 = 8;
+    pub const LOCAL_AGE_SHARE: f64 = 0.05;
     /// The process: a G3Si CMT process on a 1 mm wire, its wire feed modulated at a constant
     /// travel speed (the CTPP choice), a fixed arc power, Eq.7's rectangular section.
     pub const WIRE_DIAMETER_MM: f64 = 1.0;
@@ -183,6 +191,9 @@ pub struct ThermalSettings {
     /// Voxel model: the plate's cells merged 2 × 2 × 2 away from the metal laid on it
     /// (`thermal::voxel::VoxelSettings::coarse_plate`).
     pub coarse_plate: bool,
+    /// Thin wall: the nodes far from the arc stepped at their own, longer rates
+    /// (`thermal::rates`); false: every node at every step (the reference).
+    pub local_steps: bool,
 }
 
 impl Default for ThermalSettings {
@@ -216,6 +227,7 @@ impl ThermalSettings {
             plate_disc: false,
             lead_m: d::LEAD_MM * MM,
             coarse_plate: false,
+            local_steps: true,
         }
     }
 }

@@ -213,6 +213,7 @@ pub(crate) mod fixtures {
             plate_disc: false,
             lead_m: 10e-3,
             coarse_plate: false,
+            local_steps: true,
         }
     }
 }

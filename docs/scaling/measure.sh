@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# The cost of a heat run against the part's size (docs/PERFORMANCE.md "Parts at full scale").
+# `simulate` of closed hemispheres (2 mm edges, the fitted plate, outputs off), each model with
+# and without its cost cut, one run at a time; one row each into scaling.csv beside this file:
+#   model,mode,radius_mm,bead_m,deposits,wall_s,peak_mb
+# wall_s is the whole command's (plan, heat, files), peak_mb its peak resident memory.
+# Usage: [MODELS="thin-wall voxel"] docs/scaling/measure.sh [RADIUS_MM ...]   (default 50 100 200)
+# Then: cargo run --release -p sim --example scaling_plot -- docs/scaling/scaling.csv docs/img/scaling.png
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+cargo build --release -p sim --bin waamtwin
+radii=("$@")
+[ $# -eq 0 ] && radii=(50 100 200)
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+table=docs/scaling/scaling.csv
+[ -f "$table" ] || echo "model,mode,radius_mm,bead_m,deposits,wall_s,peak_mb" >"$table"
+for r in "${radii[@]}"; do
+  for case in "thin-wall reference local_steps=false" "thin-wall cut local_steps=true" \
+    "voxel reference coarse_plate=false" "voxel cut coarse_plate=true"; do
+    read -r model mode key <<<"$case"
+    [[ " ${MODELS:-thin-wall voxel} " == *" $model "* ]] || continue
+    cat >"$work/s.toml" <<TOML
+[part]
+shape = "hemisphere"
+radius_mm = $r.0
+edge_mm = 2.0
+[thermal]
+model = "$model"
+${key/=/ = }
+[output]
+rerun = false
+mcap = false
+hdf5 = false
+plots = false
+report = false
+frames = 0
+TOML
+    rm -rf "$work/out"
+    /usr/bin/time -f "%e %M" -o "$work/time" target/release/waamtwin simulate "$work/s.toml" \
+      -o "$work/out" >"$work/log" 2>&1 || { cat "$work/log"; exit 1; }
+    read -r wall kb <"$work/time"
+    stats=$(python3 -c "
+import csv, json, math, sys
+p = json.load(open('$work/out/plan.json'))
+rows = list(csv.DictReader(open('$work/out/path.csv')))
+xyz = [[float(r[k]) for k in ('x', 'y', 'z')] for r in rows]
+bead = sum(math.dist(a, b) for a, b in zip(xyz, xyz[1:])) / 1e3
+print(f'{bead:.2f} {p[\"n_points\"]}')")
+    read -r bead n <<<"$stats"
+    echo "$model,$mode,$r,$bead,$n,$wall,$((kb / 1024))" | tee -a "$table"
+  done
+done

@@ -1,0 +1,425 @@
+//! Local time stepping: metal far from the arc stepped at its own, longer rate.
+//!
+//! Stepping every node of a growing part at every arc step costs deposits × nodes, the square of
+//! the part. Away from the arc the temperature varies slowly: on the scale of the diffusion time
+//! d²/α over the distance d from it, and of the wall's cooling time ρcW/(2h) (≈ 250 s for a
+//! 5 mm steel wall). So the nodes are sorted into levels: level 0 takes every step; level m ≥ 1
+//! steps every `period · 2^(m−1)` seconds. A node may take level m where
+//!
+//! - the torch, as scheduled, comes no nearer than `near · √2^(m−1)` to it before level m steps
+//!   again (the distance grows as the period's square root, as diffusion does) — the schedule is
+//!   known, so this is asked of the path itself ([`Reach`]): a dwell only delays the torch, and
+//!   an arc run faster than scheduled, or a travel, is stepped whole by the caller;
+//! - its period is at most `age_share` of the time since the torch was last within `near` of
+//!   it (its age): metal just laid cools fast, whatever its distance from the torch.
+//!
+//! A node's period so grows with the time until the torch comes back and with its age, which
+//! is what keeps the cost in step with the deposit: the number of nodes of a given age, or a
+//! given time ahead of the torch, does not grow with the part, and each is stepped at a rate
+//! inversely proportional to it.
+//!
+//! This is multirate local time stepping (Gear & Wells 1984; the levels nested by powers of two as
+//! in the local time stepping of explicit schemes, Osher & Sanders 1983), here on backward Euler:
+//!
+//! - each level's step is implicit within the level; a coarser neighbour is held at its
+//!   temperature (a Dirichlet node), a finer one is left out;
+//! - the heat that crosses a level's edge to a coarser node is booked to that node (`acc`, J)
+//!   and goes in as a source at its next step: what one side loses the other gains, so the
+//!   energy ledger still closes to round-off;
+//! - level m's steps fall on multiples of its period, which are multiples of every finer
+//!   level's: when level m steps, every level below it has just stepped, all at one time, and
+//!   their nodes may be sorted again (a node is moved only then, never while it owes a step);
+//! - a full step (a cooling, a travel) first brings every level to the same time.
+//!
+//! The error is the lag at a level's edge (the coarser node's temperature held while the finer
+//! side steps), small where the two sides vary slowly; it is measured against the uncut run in
+//! `thermal/tests/local_steps.rs` and in docs/PHYSICS.md "Local time stepping".
+
+use serde::{Deserialize, Serialize};
+
+/// How the nodes far from the arc are stepped.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LocalSteps {
+    /// Distance from the torch within which every node takes every step, m.
+    pub near: f64,
+    /// Period of level 1, s; level m steps every `period · 2^(m−1)`.
+    pub period: f64,
+    /// Coarsest level (0: every node at every step; at most 16).
+    pub levels: u8,
+    /// A node steps at most this share of the time since the torch was last near it (its age):
+    /// metal just laid cools fast, whatever its distance from the torch.
+    pub age_share: f64,
+}
+
+impl LocalSteps {
+    /// Period of level m ≥ 1, s.
+    pub fn period_of(&self, m: u8) -> f64 {
+        self.period * f64::from(1u32 << (m - 1))
+    }
+
+    /// How near the torch may come to a node of level m ≥ 1 before it steps again, m.
+    pub fn reach_of(&self, m: u8) -> f64 {
+        self.near * std::f64::consts::SQRT_2.powi(i32::from(m) - 1)
+    }
+
+    /// The coarsest level a node the torch was last near `age` seconds ago may take.
+    pub fn level_of_age(&self, age: f64) -> u8 {
+        (1..=self.levels)
+            .rev()
+            .find(|&m| self.period_of(m) <= self.age_share * age)
+            .unwrap_or(0)
+    }
+}
+
+/// Where the torch will be: the path's segments in a tree of boxes over runs of consecutive
+/// segments (a segment tree, each box bounding its run), and the arc time up to each, so that
+/// "does the torch come within d of this point in the next t seconds of arc" is a descent
+/// through the boxes near the point, not a walk along the path.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Reach {
+    /// Arc time from the path's start to the end of each segment, s.
+    until: Vec<f64>,
+    /// Leaves in the tree (a power of two, at least the segments).
+    leaves: usize,
+    /// Boxes of the tree, root at 1, node k's children 2k and 2k + 1; empty boxes inverted.
+    lo: Vec<[f64; 3]>,
+    hi: Vec<[f64; 3]>,
+}
+
+impl Reach {
+    /// From each segment's ends (`from`, `to`, m) and arc time (s).
+    pub fn new(from: &[[f64; 3]], to: &[[f64; 3]], arc: &[f64]) -> Reach {
+        let n = from.len().min(to.len()).min(arc.len());
+        let leaves = n.max(1).next_power_of_two();
+        let mut lo = vec![[f64::INFINITY; 3]; 2 * leaves];
+        let mut hi = vec![[f64::NEG_INFINITY; 3]; 2 * leaves];
+        for i in 0..n {
+            for k in 0..3 {
+                lo[leaves + i][k] = from[i][k].min(to[i][k]);
+                hi[leaves + i][k] = from[i][k].max(to[i][k]);
+            }
+        }
+        for b in (1..leaves).rev() {
+            for k in 0..3 {
+                lo[b][k] = lo[2 * b][k].min(lo[2 * b + 1][k]);
+                hi[b][k] = hi[2 * b][k].max(hi[2 * b + 1][k]);
+            }
+        }
+        let mut until = Vec::with_capacity(n);
+        let mut t = 0.0;
+        for &a in &arc[..n] {
+            t += a;
+            until.push(t);
+        }
+        Reach {
+            until,
+            leaves,
+            lo,
+            hi,
+        }
+    }
+
+    /// Whether the torch, on segment `at` now, comes within `d` of `x` (m) on the segments whose
+    /// arc starts within `horizon` seconds of arc from now (`at` itself included).
+    pub fn comes_within(&self, x: [f64; 3], d: f64, at: usize, horizon: f64) -> bool {
+        let n = self.until.len();
+        if at >= n {
+            return false;
+        }
+        let start = if at == 0 { 0.0 } else { self.until[at - 1] };
+        // The first segment whose arc starts after the horizon: its predecessor ends after it.
+        let end = (self.until.partition_point(|&u| u <= start + horizon) + 1).min(n);
+        self.within(1, 0, self.leaves, at, end.max(at + 1), x, d * d)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn within(
+        &self,
+        b: usize,
+        a0: usize,
+        a1: usize,
+        from: usize,
+        end: usize,
+        x: [f64; 3],
+        d2: f64,
+    ) -> bool {
+        if a1 <= from || a0 >= end || box_distance2(self.lo[b], self.hi[b], x) >= d2 {
+            return false;
+        }
+        if a1 - a0 == 1 {
+            return true;
+        }
+        let mid = (a0 + a1) / 2;
+        self.within(2 * b, a0, mid, from, end, x, d2)
+            || self.within(2 * b + 1, mid, a1, from, end, x, d2)
+    }
+}
+
+/// Squared distance from `x` to the box [lo, hi] (infinite for an empty box).
+fn box_distance2(lo: [f64; 3], hi: [f64; 3], x: [f64; 3]) -> f64 {
+    if lo[0] > hi[0] {
+        return f64::INFINITY;
+    }
+    (0..3)
+        .map(|k| (lo[k] - x[k]).max(x[k] - hi[k]).max(0.0).powi(2))
+        .sum()
+}
+
+/// Where the torch is and will be, as the levels are sorted: the caller's view of its path.
+pub trait Torch {
+    /// Whether node i lies within `d` (m) of the torch now.
+    fn near(&self, i: usize, d: f64) -> bool;
+    /// Whether the torch stays farther than `d` (m) from node i for the next `horizon` seconds
+    /// of arc.
+    fn clear_of(&self, i: usize, d: f64, horizon: f64) -> bool;
+}
+
+/// The state of local time stepping in a [`crate::network::Network`]: each node's level, the
+/// heat booked to it and not yet in its enthalpy, and each level's clock.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(crate) struct Rates {
+    pub settings: LocalSteps,
+    /// Per node: its level (active nodes only are members of one).
+    pub level: Vec<u8>,
+    /// Per node: heat from finer neighbours since its last step, J.
+    pub acc: Vec<f64>,
+    /// Per level: its nodes, ascending.
+    pub members: Vec<Vec<u32>>,
+    /// Per level: the time of its last step, s (network time).
+    pub last: Vec<f64>,
+    /// Per node: when the torch was last near it (its level by distance 0), s.
+    pub near_at: Vec<f64>,
+    /// Network time, s.
+    pub elapsed: f64,
+}
+
+impl Rates {
+    pub fn new(settings: LocalSteps, active: &[bool]) -> Rates {
+        let levels = usize::from(settings.levels) + 1;
+        let mut members = vec![Vec::new(); levels];
+        members[0] = (0..active.len() as u32)
+            .filter(|&i| active[i as usize])
+            .collect();
+        Rates {
+            settings,
+            level: vec![0; active.len()],
+            acc: vec![0.0; active.len()],
+            members,
+            last: vec![0.0; levels],
+            near_at: vec![0.0; active.len()],
+            elapsed: 0.0,
+        }
+    }
+
+    /// A node switched on joins level 0.
+    pub fn join(&mut self, i: usize) {
+        self.level[i] = 0;
+        self.near_at[i] = self.elapsed;
+        let m = &mut self.members[0];
+        if let Err(at) = m.binary_search(&(i as u32)) {
+            m.insert(at, i as u32);
+        }
+    }
+
+    /// Whether level m ≥ 1 steps now: the time crossed one of its multiples since its last step.
+    pub fn due(&self, m: u8) -> bool {
+        let p = self.settings.period_of(m);
+        // A tolerance of a microsecond against the round-off of summed steps.
+        ((self.elapsed + 1e-6) / p).floor() > ((self.last[usize::from(m)] + 1e-6) / p).floor()
+    }
+
+    /// Sort the nodes of levels 0..=top (all stepped to `elapsed`) again by where the torch is
+    /// and will be, and by their age, none coarser than `top`. Returns the nodes that changed
+    /// level.
+    pub fn sort(
+        &mut self,
+        top: u8,
+        torch: &impl Torch,
+        stable: impl Fn(usize, u8, f64, &[u8]) -> bool,
+    ) -> Vec<u32> {
+        let mut pool: Vec<u32> = Vec::new();
+        for m in 0..=usize::from(top) {
+            pool.append(&mut self.members[m]);
+        }
+        pool.sort_unstable();
+        let before: Vec<u8> = pool.iter().map(|&i| self.level[i as usize]).collect();
+        let s = self.settings;
+        for &i in &pool {
+            let i = i as usize;
+            if torch.near(i, s.near) {
+                self.near_at[i] = self.elapsed;
+                self.level[i] = 0;
+                continue;
+            }
+            let mut m = s.level_of_age(self.elapsed - self.near_at[i]).min(top);
+            while m > 0 && !torch.clear_of(i, s.reach_of(m), s.period_of(m)) {
+                m -= 1;
+            }
+            self.level[i] = m;
+        }
+        // A node whose finer neighbours would outweigh it steps finer, until none does (each
+        // pass only lowers levels, so this ends).
+        for _ in 0..=self.settings.levels {
+            let mut lowered = false;
+            for &i in &pool {
+                let i = i as usize;
+                while self.level[i] > 0
+                    && !stable(
+                        i,
+                        self.level[i],
+                        self.settings.period_of(self.level[i]),
+                        &self.level,
+                    )
+                {
+                    self.level[i] -= 1;
+                    lowered = true;
+                }
+            }
+            if !lowered {
+                break;
+            }
+        }
+        let mut moved = Vec::new();
+        for (&i, was) in pool.iter().zip(before) {
+            let m = self.level[i as usize];
+            if m != was {
+                moved.push(i);
+            }
+            self.members[usize::from(m)].push(i);
+        }
+        moved
+    }
+
+    /// Node index runs [start, end) of level m's members.
+    pub fn runs_of(&self, m: u8, runs: &mut Vec<(usize, usize)>) {
+        runs.clear();
+        for &i in &self.members[usize::from(m)] {
+            let i = i as usize;
+            match runs.last_mut() {
+                Some(run) if run.1 == i => run.1 = i + 1,
+                _ => runs.push((i, i + 1)),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A straight path along x at 10 mm/s in 2 mm segments.
+    fn straight(n: usize) -> Reach {
+        let to: Vec<[f64; 3]> = (0..n).map(|i| [0.002 * (i + 1) as f64, 0.0, 0.0]).collect();
+        let from: Vec<[f64; 3]> = (0..n).map(|i| [0.002 * i as f64, 0.0, 0.0]).collect();
+        Reach::new(&from, &to, &vec![0.2; n])
+    }
+
+    #[test]
+    fn the_reach_sees_the_torch_come_near_within_the_horizon_only() {
+        let r = straight(1000);
+        // A point 30 mm ahead of segment 100's start (x = 0.2 m), 5 mm off the path.
+        let x = [0.23, 0.005, 0.0];
+        assert!(r.comes_within(x, 0.006, 100, 3.0));
+        // Within 10 mm it comes only after 2 s of arc (20 mm of path), not within 1.8 s.
+        assert!(r.comes_within(x, 0.010, 100, 2.2));
+        assert!(!r.comes_within(x, 0.010, 100, 1.8));
+        // Behind the torch, never again.
+        assert!(!r.comes_within([0.1, 0.0, 0.0], 0.05, 100, 1e6));
+        // Past the path's end: nothing comes.
+        assert!(!r.comes_within(x, 1.0, 1000, 1e6));
+        // The brute force agrees everywhere on a grid of points, reaches and horizons.
+        for &px in &[0.0, 0.1, 0.21, 0.25, 0.4, 1.9, 2.5] {
+            for &d in &[0.001, 0.01, 0.05, 0.3] {
+                for &(at, h) in &[(0, 0.5), (100, 1.0), (100, 17.0), (990, 5.0)] {
+                    let x = [px, 0.003, 0.0];
+                    let brute = (at..1000)
+                        .take_while(|&j| 0.2 * (j - at) as f64 <= h + 1e-12)
+                        .any(|j| {
+                            let (a, b) = (0.002 * j as f64, 0.002 * (j + 1) as f64);
+                            let dx = (a - px).max(px - b).max(0.0);
+                            dx.hypot(0.003) < d
+                        });
+                    assert_eq!(r.comes_within(x, d, at, h), brute, "{px} {d} {at} {h}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_level_grows_with_the_age_and_the_reach_with_the_period() {
+        let s = LocalSteps {
+            near: 0.02,
+            period: 1.0,
+            levels: 5,
+            age_share: 0.1,
+        };
+        assert_eq!(s.level_of_age(9.9), 0);
+        assert_eq!(s.level_of_age(10.0), 1);
+        assert_eq!(s.level_of_age(1e4), 5);
+        assert!((s.reach_of(1) - 0.02).abs() < 1e-15);
+        assert!((s.reach_of(3) - 0.04).abs() < 1e-15);
+    }
+
+    /// A torch at the origin that never moves: node i lies i cm from it.
+    struct Still;
+    impl Torch for Still {
+        fn near(&self, i: usize, d: f64) -> bool {
+            0.01 * i as f64 <= d
+        }
+        fn clear_of(&self, i: usize, d: f64, _horizon: f64) -> bool {
+            0.01 * i as f64 > d
+        }
+    }
+
+    #[test]
+    fn a_node_takes_the_coarsest_level_its_age_and_the_torch_allow() {
+        let s = LocalSteps {
+            near: 0.02,
+            period: 1.0,
+            levels: 4,
+            age_share: 0.5,
+        };
+        let mut r = Rates::new(s, &[true; 30]);
+        r.elapsed = 100.0;
+        r.near_at[29] = 99.0; // near a second ago: its age keeps it at level 0
+        r.sort(4, &Still, |_, _, _, _| true);
+        // Node 3 is 30 mm off: clear of 20·√2 mm (level 2), not of 40 mm (level 3).
+        let want = |i: usize| match i {
+            0..=2 => 0, // within `near`
+            3..=4 => 2,
+            5 => 3,
+            _ => 4, // as old as level 4 allows (8 s ≤ 0.5 · 100 s)
+        };
+        for i in 0..29 {
+            assert_eq!(r.level[i], want(i), "node {i}");
+        }
+        assert_eq!(r.level[29], 0);
+        // Each level's members, ascending.
+        let mut all: Vec<u32> = r.members.iter().flatten().copied().collect();
+        all.sort_unstable();
+        assert_eq!(all, (0..30).collect::<Vec<u32>>());
+        // A level not yet due caps the sort.
+        let mut r = Rates::new(s, &[true; 30]);
+        r.elapsed = 100.0;
+        r.sort(2, &Still, |_, _, _, _| true);
+        assert_eq!(r.level[20], 2);
+    }
+
+    #[test]
+    fn a_level_is_due_when_its_period_is_crossed() {
+        let s = LocalSteps {
+            near: 0.02,
+            period: 1.0,
+            levels: 3,
+            age_share: 0.1,
+        };
+        let mut r = Rates::new(s, &[true; 4]);
+        r.elapsed = 0.9;
+        assert!(!r.due(1));
+        r.elapsed = 1.1;
+        assert!(r.due(1) && !r.due(2));
+        r.last[1] = 1.1;
+        r.elapsed = 2.05;
+        assert!(r.due(1) && r.due(2) && !r.due(3));
+    }
+}
