@@ -4,7 +4,8 @@
 # and without its cost cut, one run at a time; one row each into scaling.csv beside this file:
 #   model,mode,radius_mm,bead_m,deposits,wall_s,peak_mb
 # wall_s is the whole command's (plan, heat, files), peak_mb its peak resident memory.
-# Usage: [MODELS="thin-wall voxel"] docs/scaling/measure.sh [RADIUS_MM ...]   (default 50 100 200)
+# Usage: [MODELS="thin-wall voxel"] [MODES="reference cut"] [KEEP=DIR] docs/scaling/measure.sh [RADIUS_MM ...]
+#        (default 50 100 200; rows are appended)
 # Then: cargo run --release -p sim --example scaling_plot -- docs/scaling/scaling.csv docs/img/scaling.png
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -20,6 +21,7 @@ for r in "${radii[@]}"; do
     "voxel reference coarse_plate=false" "voxel cut coarse_plate=true"; do
     read -r model mode key <<<"$case"
     [[ " ${MODELS:-thin-wall voxel} " == *" $model "* ]] || continue
+    [[ " ${MODES:-reference cut} " == *" $mode "* ]] || continue
     cat >"$work/s.toml" <<TOML
 [part]
 shape = "hemisphere"
@@ -49,5 +51,10 @@ bead = sum(math.dist(a, b) for a, b in zip(xyz, xyz[1:])) / 1e3
 print(f'{bead:.2f} {p[\"n_points\"]}')")
     read -r bead n <<<"$stats"
     echo "$model,$mode,$r,$bead,$n,$wall,$((kb / 1024))" | tee -a "$table"
+    # KEEP=DIR keeps each run's layers.csv and path.csv, to compare a cut run with its reference.
+    if [ -n "${KEEP:-}" ]; then
+      mkdir -p "$KEEP/$model-$mode-$r"
+      cp "$work/out/layers.csv" "$work/out/path.csv" "$KEEP/$model-$mode-$r/"
+    fi
   done
 done

@@ -344,14 +344,16 @@ impl Network {
         ws.resize(self.len(), self.adj.len());
         self.stepped.clear();
         let rates = self.rates.as_mut().expect("local steps");
-        rates.runs_of(0, &mut ws.runs);
-        self.solve(&mut ws, dt, Some(power), Scope::Level(0));
+        let joint = rates.joint(dt);
+        rates.runs_upto(joint, &mut ws.runs);
+        self.solve(&mut ws, dt, Some(power), Scope::Levels(0, joint));
         ws.last_dt = dt;
         let rates = self.rates.as_mut().expect("local steps");
         rates.elapsed += dt;
-        rates.last[0] = rates.elapsed;
-        let mut top = 0;
-        for m in 1..=levels {
+        let now = rates.elapsed;
+        rates.last[..=usize::from(joint)].fill(now);
+        let mut top = joint;
+        for m in joint + 1..=levels {
             let rates = self.rates.as_mut().expect("local steps");
             if !rates.due(m) {
                 break;
@@ -361,7 +363,7 @@ impl Network {
             top = m;
             if !rates.members[usize::from(m)].is_empty() {
                 rates.runs_of(m, &mut ws.runs);
-                self.solve(&mut ws, tau, None, Scope::Level(m));
+                self.solve(&mut ws, tau, None, Scope::Levels(m, m));
             }
         }
         if top > 0 {
@@ -396,7 +398,7 @@ impl Network {
             rates.last[usize::from(m)] = rates.elapsed;
             if tau > 0.0 && !rates.members[usize::from(m)].is_empty() {
                 rates.runs_of(m, &mut ws.runs);
-                self.solve(&mut ws, tau, None, Scope::Level(m));
+                self.solve(&mut ws, tau, None, Scope::Levels(m, m));
             }
         }
         self.scratch = ws;
@@ -427,10 +429,10 @@ impl Network {
             match scope {
                 _ if !active[j] => Class::Off,
                 Scope::All => Class::Implicit,
-                Scope::Level(l) => match level[j].cmp(&l) {
-                    std::cmp::Ordering::Equal => Class::Implicit,
-                    std::cmp::Ordering::Greater => Class::Held,
-                    std::cmp::Ordering::Less => Class::Off,
+                Scope::Levels(lo, hi) => match level[j] {
+                    l if l > hi => Class::Held,
+                    l if l < lo => Class::Off,
+                    _ => Class::Implicit,
                 },
             }
         };
@@ -467,11 +469,17 @@ impl Network {
         // Start from the last step's trend, which halves the iterations; a coarser level's
         // step, far longer, starts where it is.
         let trend = match scope {
-            Scope::Level(m) if m > 0 => 0.0,
+            Scope::Levels(m, _) if m > 0 => 0.0,
             _ if ws.last_dt > 0.0 => dt / ws.last_dt,
             _ => 0.0,
         };
         for i in nodes(&ws.runs) {
+            // A coarser level carried along with level 0 has no trend of its own.
+            let trend = if level.get(i).is_some_and(|&l| l > 0) {
+                0.0
+            } else {
+                trend
+            };
             ws.x[i] = t[i] + trend * (t[i] - ws.last_t[i]);
         }
         self.iterations += cg(&self.start, &self.column, ws, CG_TOLERANCE_K);
@@ -522,7 +530,7 @@ impl Network {
         }
         // Conservative update from the solved temperatures: what crosses to a held node is
         // booked to it, so that it gains what this level loses.
-        let keeps_trend = !matches!(scope, Scope::Level(m) if m > 0);
+        let keeps_trend = !matches!(scope, Scope::Levels(m, _) if m > 0);
         let mut sums = [0.0; 4];
         for i in nodes(&ws.runs) {
             let (a, b) = (self.start[i] as usize, self.start[i + 1] as usize);
@@ -559,17 +567,17 @@ impl Network {
         self.ledger.convection += dt * sums[1];
         self.ledger.radiation += dt * sums[2];
         self.ledger.table += dt * sums[3];
-        if !matches!(scope, Scope::Level(m) if m > 0) {
+        if keeps_trend {
             self.steps += 1;
         }
     }
 }
 
-/// What one solve covers: every active node, or one level's.
+/// What one solve covers: every active node, or the levels lo..=hi.
 #[derive(Clone, Copy)]
 enum Scope {
     All,
-    Level(u8),
+    Levels(u8, u8),
 }
 
 /// An edge in a solve: both ends in it, the far end held (a coarser level), or left out (off,
@@ -610,7 +618,6 @@ fn stability<'a>(
         finer <= 2.0 * mass[i] * material.apparent_heat(t[i]) / p + coarser
     }
 }
-
 
 impl Clone for Scratch {
     fn clone(&self) -> Scratch {

@@ -44,7 +44,8 @@ pub struct LocalSteps {
     pub near: f64,
     /// Period of level 1, s; level m steps every `period · 2^(m−1)`.
     pub period: f64,
-    /// Coarsest level (0: every node at every step; at most 16).
+    /// Coarsest level (0: every node at every step; more than 16 is taken as 16, a period of
+    /// 9 h).
     pub levels: u8,
     /// A node steps at most this share of the time since the torch was last near it (its age):
     /// metal just laid cools fast, whatever its distance from the torch.
@@ -72,13 +73,18 @@ impl LocalSteps {
 }
 
 /// Where the torch will be: the path's segments in a tree of boxes over runs of consecutive
-/// segments (a segment tree, each box bounding its run), and the arc time up to each, so that
-/// "does the torch come within d of this point in the next t seconds of arc" is a descent
-/// through the boxes near the point, not a walk along the path.
+/// segments (a segment tree, each box bounding its run), and the path's length up to each, so
+/// that "does the torch come within d of this point in the next t seconds of arc" is a descent
+/// through the boxes near the point, not a walk along the path. The torch is taken to run the
+/// path at the schedule's fastest speed: a slower burn, a dwell or a slower stretch only
+/// delays it, and the levels do not depend on how the arc times are spread along the path (a
+/// burn that slows the arc sorts the nodes as the schedule with that arc would).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Reach {
-    /// Arc time from the path's start to the end of each segment, s.
+    /// Path length from the path's start to the end of each segment, m.
     until: Vec<f64>,
+    /// The schedule's fastest travel, m/s.
+    speed: f64,
     /// Leaves in the tree (a power of two, at least the segments).
     leaves: usize,
     /// Boxes of the tree, root at 1, node k's children 2k and 2k + 1; empty boxes inverted.
@@ -105,22 +111,30 @@ impl Reach {
                 hi[b][k] = hi[2 * b][k].max(hi[2 * b + 1][k]);
             }
         }
-        let mut until = Vec::with_capacity(n);
-        let mut t = 0.0;
-        for &a in &arc[..n] {
-            t += a;
-            until.push(t);
+        let (mut until, mut run, mut speed) = (Vec::with_capacity(n), 0.0, 0.0f64);
+        for i in 0..n {
+            let length = (0..3)
+                .map(|k| (to[i][k] - from[i][k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            run += length;
+            until.push(run);
+            if arc[i] > 0.0 {
+                speed = speed.max(length / arc[i]);
+            }
         }
         Reach {
             until,
+            speed,
             leaves,
             lo,
             hi,
         }
     }
 
-    /// Whether the torch, on segment `at` now, comes within `d` of `x` (m) on the segments whose
-    /// arc starts within `horizon` seconds of arc from now (`at` itself included).
+    /// Whether the torch, on segment `at` now, comes within `d` of `x` (m) on the segments that
+    /// start within `horizon` seconds of arc from now at the fastest speed (`at` itself
+    /// included).
     pub fn comes_within(&self, x: [f64; 3], d: f64, at: usize, horizon: f64) -> bool {
         let n = self.until.len();
         if at >= n {
@@ -128,7 +142,8 @@ impl Reach {
         }
         let start = if at == 0 { 0.0 } else { self.until[at - 1] };
         // The first segment whose arc starts after the horizon: its predecessor ends after it.
-        let end = (self.until.partition_point(|&u| u <= start + horizon) + 1).min(n);
+        let ahead = self.speed * horizon;
+        let end = (self.until.partition_point(|&u| u <= start + ahead) + 1).min(n);
         self.within(1, 0, self.leaves, at, end.max(at + 1), x, d * d)
     }
 
@@ -195,6 +210,10 @@ pub(crate) struct Rates {
 
 impl Rates {
     pub fn new(settings: LocalSteps, active: &[bool]) -> Rates {
+        let settings = LocalSteps {
+            levels: settings.levels.min(16),
+            ..settings
+        };
         let levels = usize::from(settings.levels) + 1;
         let mut members = vec![Vec::new(); levels];
         members[0] = (0..active.len() as u32)
@@ -290,15 +309,51 @@ impl Rates {
         moved
     }
 
+    /// Node index runs [start, end) of the members of levels 0..=m, in index order.
+    pub fn runs_upto(&self, m: u8, runs: &mut Vec<(usize, usize)>) {
+        if m == 0 {
+            return self.runs_of(0, runs);
+        }
+        let mut all: Vec<u32> = self.members[..=usize::from(m)]
+            .iter()
+            .flatten()
+            .copied()
+            .collect();
+        all.sort_unstable();
+        runs_of(&all, runs);
+    }
+
     /// Node index runs [start, end) of level m's members.
     pub fn runs_of(&self, m: u8, runs: &mut Vec<(usize, usize)>) {
-        runs.clear();
-        for &i in &self.members[usize::from(m)] {
-            let i = i as usize;
-            match runs.last_mut() {
-                Some(run) if run.1 == i => run.1 = i + 1,
-                _ => runs.push((i, i + 1)),
-            }
+        runs_of(&self.members[usize::from(m)], runs);
+    }
+
+    /// The coarsest level that steps with level 0 in one solve at its step of `dt`: each level
+    /// up to it in step with level 0 (last stepped when it did) and falling due at the step's
+    /// end. A cooling's steps of seconds carry most levels along: solved one level at a time,
+    /// each held at the other's temperature over so long a step, they read up to 3 % of the rise
+    /// off on a wall of separate tracks.
+    pub fn joint(&self, dt: f64) -> u8 {
+        let now = self.elapsed + dt;
+        let p = |m: u8| self.settings.period_of(m);
+        (1..=self.settings.levels)
+            .take_while(|&m| {
+                (self.last[usize::from(m)] - self.last[0]).abs() < 1e-9
+                    && ((now + 1e-6) / p(m)).floor() > ((self.last[0] + 1e-6) / p(m)).floor()
+            })
+            .last()
+            .unwrap_or(0)
+    }
+}
+
+/// Index runs [start, end) of ascending indices.
+fn runs_of(members: &[u32], runs: &mut Vec<(usize, usize)>) {
+    runs.clear();
+    for &i in members {
+        let i = i as usize;
+        match runs.last_mut() {
+            Some(run) if run.1 == i => run.1 = i + 1,
+            _ => runs.push((i, i + 1)),
         }
     }
 }

@@ -646,7 +646,21 @@ impl HeatRun for WallRun {
         let mut dt = self.cooling_step.min(duration);
         while self.now < end - 1e-9 {
             let step = dt.min(end - self.now);
-            self.model.network.step(step, &self.power);
+            // The torch waits where it stopped: far from it, and in metal long cooled, the
+            // levels step at their own rates through the dwell as through the arc.
+            let m = &mut self.model;
+            match self.laid.checked_sub(1) {
+                Some(last) if self.reach.is_some() => {
+                    let torch = TorchOnPath {
+                        reach: self.reach.as_deref(),
+                        positions: &m.positions,
+                        at: self.laid.min(self.deps.len() - 1),
+                        position: self.deps[last].position,
+                    };
+                    m.network.step_near(step, &self.power, &torch);
+                }
+                _ => m.network.step(step, &self.power),
+            }
             self.now += step;
             self.observe();
             dt = (dt * 2.0).min(self.settings.max_step);

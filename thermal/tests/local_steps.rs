@@ -14,7 +14,7 @@ use thermal::{HeatRun, Plate, RunResult};
 const LOCAL: LocalSteps = LocalSteps {
     near: 0.025,
     period: 1.0,
-    levels: 8,
+    levels: 12,
     age_share: 0.05,
 };
 

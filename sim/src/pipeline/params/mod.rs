@@ -135,12 +135,13 @@ pub mod documented {
     pub const STICKOUT_MM: f64 = 15.0;
     /// Thin wall's local time stepping (docs/PHYSICS.md "Local time stepping"): every node
     /// within this of the torch (and of the lead and footprint, two nodes beyond) takes every
-    /// step; level 1 steps every second, level m every 2^(m−1) s up to 128 s; a node steps at
-    /// most every 5 % of the time since the torch was last near it.
+    /// step; level m steps every 2^(m−1) s, up to 2048 s, where the torch as scheduled comes no
+    /// nearer than 25 mm·√2^(m−1) before its next step and the period is at most 2.5 % of the time
+    /// since the torch was last near.
     pub const LOCAL_NEAR_MM: f64 = 25.0;
     pub const LOCAL_PERIOD_S: f64 = 1.0;
-    pub const LOCAL_LEVELS: u8 = 8;
-    pub const LOCAL_AGE_SHARE: f64 = 0.05;
+    pub const LOCAL_LEVELS: u8 = 12;
+    pub const LOCAL_AGE_SHARE: f64 = 0.025;
     /// The process: a G3Si CMT process on a 1 mm wire, its wire feed modulated at a constant
     /// travel speed (the CTPP choice), a fixed arc power, Eq.7's rectangular section.
     pub const WIRE_DIAMETER_MM: f64 = 1.0;
