@@ -51,10 +51,11 @@ bead = sum(math.dist(a, b) for a, b in zip(xyz, xyz[1:])) / 1e3
 print(f'{bead:.2f} {p[\"n_points\"]}')")
     read -r bead n <<<"$stats"
     echo "$model,$mode,$r,$bead,$n,$wall,$((kb / 1024))" | tee -a "$table"
-    # KEEP=DIR keeps each run's layers.csv and path.csv, to compare a cut run with its reference.
+    # KEEP=DIR keeps each run's layers.csv, path.csv and thermal.json (the heat run's own wall_s),
+    # to compare a cut run with its reference.
     if [ -n "${KEEP:-}" ]; then
       mkdir -p "$KEEP/$model-$mode-$r"
-      cp "$work/out/layers.csv" "$work/out/path.csv" "$KEEP/$model-$mode-$r/"
+      cp "$work/out/layers.csv" "$work/out/path.csv" "$work/out/thermal.json" "$KEEP/$model-$mode-$r/"
     fi
   done
 done

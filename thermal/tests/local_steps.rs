@@ -1,7 +1,7 @@
 //! Local time stepping ([`thermal::rates`]) against the reference that steps every node at every
-//! step, on schedules it was not tuned on (the defaults were chosen on closed domes, R 50 and
-//! R 100, in `sim`): a tall cylinder laid without a pause, and a straight wall of separate tracks
-//! with a travel and a dwell before each.
+//! step, on schedules it was not tuned on (the defaults were chosen on the closed domes R 100
+//! and R 200 in `sim`, docs/PHYSICS.md "Local time stepping"): a tall cylinder laid without a
+//! pause, and a straight wall of separate tracks with a travel and a dwell before each.
 
 use thermal::material::Material;
 use thermal::network::Surroundings;
@@ -12,10 +12,10 @@ use thermal::{HeatRun, Plate, RunResult};
 
 /// The engine's defaults (`sim`'s documented LOCAL_* constants).
 const LOCAL: LocalSteps = LocalSteps {
-    near: 0.025,
+    near: 0.05,
     period: 1.0,
     levels: 12,
-    age_share: 0.05,
+    age_share: 0.025,
 };
 
 fn settings(local_steps: Option<LocalSteps>) -> WallSettings {
@@ -108,11 +108,13 @@ fn compare(deps: &[Deposit], dwell: impl Fn(usize) -> f64 + Copy, name: &str) ->
 #[test]
 fn a_tall_cylinder_keeps_its_preheats_and_steps_far_fewer_nodes() {
     let deps = helix(0.06, 120, 25, 2e-3, 5e-3, 10e-3, 1700.0);
-    // Measured: within 0.45 % (median 0.21 %), 47 % of the node steps; the bound is the issue's
-    // (2 % of the rise). The share of the work falls as the part grows (docs/PERFORMANCE.md).
+    // Measured: within 0.05 % (median 0.02 %), 76 % of the node steps; the bound is the issue's
+    // (2 % of the rise). So small a part lies mostly within the near zone (50 mm); the share of
+    // the work falls as the part grows (docs/PERFORMANCE.md: the dome R 200 in 40 % of the
+    // reference's time).
     let (worst, median, work) = compare(&deps, |_| 0.0, "cylinder");
     assert!(worst < 0.02 && median < 0.005, "{worst} {median}");
-    assert!(work < 0.6, "{work} of the reference's node steps");
+    assert!(work < 0.85, "{work} of the reference's node steps");
 }
 
 /// 20 tracks of 100 mm, each from the same end after a travel and a 20 s dwell: every travel
@@ -141,13 +143,22 @@ fn a_wall_of_separate_tracks_with_dwells_keeps_its_preheats() {
             });
         }
     }
-    let dwell = |i: usize| if i % per == 0 && i > 0 { 20.0 } else { 0.0 };
+    let dwell = |i: usize| {
+        if i.is_multiple_of(per) && i > 0 {
+            20.0
+        } else {
+            0.0
+        }
+    };
     let mut t = 0.0;
     for (i, d) in deps.iter_mut().enumerate() {
         t += dwell(i) + d.arc_time;
         d.time = t;
     }
-    // Measured: within 1.06 % (median 0.23 %), 39 % of the node steps.
+    // Measured: within 0.05 % (median 0.01 %), 58 % of the node steps. With a near zone of
+    // 25 mm: 0.21 %, and 1.3 % with the dwells stepping every node at once, 3.4 % with each
+    // level solved apart through the dwells' long steps (the levels in step with level 0 are
+    // now solved with it).
     let (worst, median, _) = compare(&deps, dwell, "straight wall");
     assert!(worst < 0.02 && median < 0.005, "{worst} {median}");
 }
