@@ -316,19 +316,27 @@ impl Network {
     /// travel: the torch is somewhere new).
     pub fn step_whole(&mut self, dt: f64, power: &[f64], torch: &impl Torch) {
         self.step(dt, power);
-        if let Some(rates) = &mut self.rates {
-            let top = rates.settings.levels;
-            let stable = stability(
-                &self.start,
-                &self.adj,
-                &self.active,
-                &self.mass,
-                &self.t,
-                &self.material,
-            );
-            for i in rates.sort(top, torch, stable) {
-                self.scratch.last_t[i as usize] = self.t[i as usize];
-            }
+        if let Some(top) = self.rates.as_ref().map(|r| r.settings.levels) {
+            self.sort_levels(top, torch);
+        }
+    }
+
+    /// Sort the nodes of levels 0..=top (all just stepped) again by where the torch is and
+    /// will be; a node that changes level starts its trend from where it is.
+    fn sort_levels(&mut self, top: u8, torch: &impl Torch) {
+        let Some(rates) = &mut self.rates else {
+            return;
+        };
+        let stable = stability(
+            &self.start,
+            &self.adj,
+            &self.active,
+            &self.mass,
+            &self.t,
+            &self.material,
+        );
+        for i in rates.sort(top, torch, stable) {
+            self.scratch.last_t[i as usize] = self.t[i as usize];
         }
     }
 
@@ -366,22 +374,10 @@ impl Network {
                 self.solve(&mut ws, tau, None, Scope::Levels(m, m));
             }
         }
-        if top > 0 {
-            let rates = self.rates.as_mut().expect("local steps");
-            let stable = stability(
-                &self.start,
-                &self.adj,
-                &self.active,
-                &self.mass,
-                &self.t,
-                &self.material,
-            );
-            for i in rates.sort(top, torch, stable) {
-                // A node that joins level 0 starts the trend from where it is.
-                ws.last_t[i as usize] = self.t[i as usize];
-            }
-        }
         self.scratch = ws;
+        if top > 0 {
+            self.sort_levels(top, torch);
+        }
     }
 
     /// Bring every level to the network's time (each coarser level steps over what it owes,
