@@ -273,11 +273,6 @@ impl Network {
         self.rates = Some(Rates::new(settings, &self.active));
     }
 
-    /// Whether the nodes far from the arc are stepped at their own rates.
-    pub fn is_local(&self) -> bool {
-        self.rates.is_some()
-    }
-
     /// The nodes the last step moved, as index runs [start, end) with the time each run
     /// advanced, s: every active node after [`Network::step`], those near the torch and the
     /// levels that fell due after [`Network::step_near`].

@@ -29,7 +29,9 @@
 //! - level m's steps fall on multiples of its period, which are multiples of every finer
 //!   level's: when level m steps, every level below it has just stepped, all at one time, and
 //!   their nodes may be sorted again (a node is moved only then, never while it owes a step);
-//! - a full step (a cooling, a travel) first brings every level to the same time.
+//! - a dwell steps the levels as the arc does, the torch parked where it stopped, the levels in
+//!   step with level 0 solved with it in one system;
+//! - a full step (a travel between tracks) first brings every level to the same time.
 //!
 //! The error is the lag at a level's edge (the coarser node's temperature held while the finer
 //! side steps), small where the two sides vary slowly; it is measured against the uncut run in

@@ -593,7 +593,7 @@ impl HeatRun for WallRun {
                 self.powered.push(node);
             }
             // Where the nodes far from the arc step at their own rates, the levels were sorted
-            // by how far the torch runs in each level's period as scheduled: a travel between
+            // by where the scheduled path brings the torch at its fastest: a travel between
             // tracks, or an arc run faster than scheduled, is stepped whole.
             let whole = d.start.is_some() || arc < d.arc_time * (1.0 - 1e-9);
             let torch = TorchOnPath {
