@@ -53,6 +53,7 @@ fn main() {
         probe_every: 0.0,
         source: thermal::voxel::HeatSource::DoubleEllipsoid,
         coarse_plate: false,
+        device: Default::default(),
     };
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()

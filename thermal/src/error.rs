@@ -23,6 +23,9 @@ pub enum ThermalError {
         what: &'static str,
         value: f64,
     },
+    /// The voxel model was asked to run on a GPU (`VoxelSettings::device`) and cannot: no
+    /// adapter, a build without the `gpu` feature, or a setting the device does not run.
+    Device { reason: String },
     /// The caller asked every run to stop ([`crate::run::request_stop`]): not a failure of the
     /// model, and not the input's.
     Stopped { time_s: f64 },
@@ -44,6 +47,9 @@ impl fmt::Display for ThermalError {
         match self {
             ThermalError::Schedule { deposit, reason } => write!(f, "deposit {deposit}: {reason}"),
             ThermalError::Plate { reason } => write!(f, "plate: {reason}"),
+            ThermalError::Device { reason } => {
+                write!(f, "[thermal] device = \"gpu\": {reason}")
+            }
             ThermalError::OutsidePlate {
                 deposit,
                 x_mm,

@@ -47,6 +47,7 @@ fn models(material: Material) -> [HeatModel; 4] {
         probe_every: 0.0,
         source: thermal::voxel::HeatSource::DoubleEllipsoid,
         coarse_plate: false,
+        device: Default::default(),
     };
     let wall = WallSettings {
         material: material.clone(),
@@ -80,9 +81,28 @@ fn models(material: Material) -> [HeatModel; 4] {
         HeatModel::Voxel(voxel.clone()),
         HeatModel::Voxel(VoxelSettings {
             coarse_plate: true,
+            device: Default::default(),
             ..voxel
         }),
     ]
+}
+
+/// The four models, and where the GPU's tests run (the `gpu` feature, `WAAMTWIN_SYSTEM_TESTS=1`:
+/// CI on Mesa's lavapipe) the voxel model on the GPU as a fifth.
+fn all_models(material: Material) -> Vec<HeatModel> {
+    let models = models(material).to_vec();
+    #[cfg(all(feature = "gpu", system_tests))]
+    let models = {
+        let mut models = models;
+        if let HeatModel::Voxel(v) = &models[2] {
+            models.push(HeatModel::Voxel(VoxelSettings {
+                device: thermal::voxel::Device::Gpu,
+                ..v.clone()
+            }));
+        }
+        models
+    };
+    models
 }
 
 fn preheats(r: &RunResult) -> Vec<f64> {
@@ -92,7 +112,7 @@ fn preheats(r: &RunResult) -> Vec<f64> {
 #[test]
 fn a_checkpoint_carries_on_as_the_run_it_was_cloned_from() {
     let deps = schedule();
-    for model in models(Material::g3si()) {
+    for model in all_models(Material::g3si()) {
         let whole = model.simulate(&deps).unwrap();
         let mut run = model.start(&deps).unwrap();
         for i in 0..50 {
@@ -126,7 +146,7 @@ fn a_checkpoint_carries_on_as_the_run_it_was_cloned_from() {
 #[test]
 fn a_run_kept_as_bytes_carries_on_to_the_bit() {
     let deps = schedule();
-    for mut model in models(Material::g3si()) {
+    for mut model in all_models(Material::g3si()) {
         model.set_traces(vec![3, 45]);
         model.set_trace_hottest(true);
         let [x, y, z] = deps[75].position;
@@ -165,7 +185,7 @@ fn a_dwell_passed_to_deposit_is_a_gap_in_the_schedule() {
     for d in &mut gapped[45..] {
         d.time += 30.0;
     }
-    for model in models(Material::g3si()) {
+    for model in all_models(Material::g3si()) {
         let scheduled = model.simulate(&gapped).unwrap();
         let mut run = model.start(&deps).unwrap();
         for i in 0..deps.len() {
@@ -214,7 +234,7 @@ fn a_burn_is_the_schedule_with_that_arc_and_heat() {
         (d.arc_time, d.heat) = (b.arc_time, b.heat);
         d.time += shift;
     }
-    for model in models(Material::g3si()) {
+    for model in all_models(Material::g3si()) {
         let scheduled = model.simulate(&slowed).unwrap();
         let mut run = model.start(&deps).unwrap();
         for (i, d) in deps.iter().enumerate() {
@@ -285,7 +305,7 @@ fn a_drop_reads_its_preheat_as_its_arc_strikes() {
         d.time += shift;
         d.drop = Some(part(i));
     }
-    for model in models(Material::g3si()) {
+    for model in all_models(Material::g3si()) {
         let mut run = model.start(&deps).unwrap();
         for i in 0..70 {
             run.deposit(i, 0.0).unwrap();
@@ -342,7 +362,7 @@ fn a_numerical_failure_names_its_time_place_and_value() {
     // No heat capacity: the first step divides by a zero mass.
     let massless = Material::constant(0.0, 500.0, 40.0, 1700.0, 0.0);
     let deps = schedule();
-    for model in models(massless) {
+    for model in all_models(massless) {
         let err = model.simulate(&deps).unwrap_err();
         match err {
             ThermalError::NonFinite {
@@ -374,7 +394,7 @@ fn a_deposit_off_the_plate_is_bad_input() {
     );
     assert!(err.is_input());
     deps[3].heat = f64::INFINITY;
-    for model in models(Material::g3si()) {
+    for model in all_models(Material::g3si()) {
         let err = model.start(&deps).err().expect("infinite heat");
         assert!(
             matches!(err, ThermalError::Schedule { deposit: 3, .. }),
@@ -391,7 +411,7 @@ fn a_deposit_off_the_plate_is_bad_input() {
 fn cooling_metal_never_reads_below_ambient() {
     let deps = schedule();
     let end = deps.last().unwrap().time;
-    for mut model in models(Material::g3si()) {
+    for mut model in all_models(Material::g3si()) {
         let times: Vec<f64> = (1..=240).map(|k| end - 20.0 + 0.5 * k as f64).collect();
         model.set_snapshot_times(times);
         let mut run = model.start(&deps).unwrap();
@@ -420,7 +440,7 @@ fn cooling_metal_never_reads_below_ambient() {
 #[test]
 fn a_trace_follows_every_step_and_holds_the_peak() {
     let deps = schedule();
-    for mut model in models(Material::g3si()) {
+    for mut model in all_models(Material::g3si()) {
         model.set_traces(vec![10, 50]);
         let r = model.simulate(&deps).unwrap();
         assert_eq!(r.traces.len(), 2);
@@ -455,7 +475,7 @@ fn a_trace_follows_every_step_and_holds_the_peak() {
 #[test]
 fn the_hottest_metal_bounds_every_trace_and_reaches_the_highest_peak() {
     let deps = schedule();
-    for mut model in models(Material::g3si()) {
+    for mut model in all_models(Material::g3si()) {
         model.set_traces(vec![10, 50]);
         model.set_trace_hottest(true);
         let r = model.simulate(&deps).unwrap();
@@ -595,7 +615,7 @@ fn tracks_with_travel_between_them_on_both_models() {
         }
     }
     let mut preheats = Vec::new();
-    for model in models(Material::g3si()) {
+    for model in all_models(Material::g3si()) {
         let r = model
             .simulate(&deps)
             .unwrap_or_else(|e| panic!("{}: {e}", model.name()));
@@ -623,7 +643,7 @@ fn tracks_with_travel_between_them_on_both_models() {
 #[test]
 fn a_quenched_run_is_at_ambient_and_carries_on_cooler() {
     let deps = schedule();
-    for model in models(Material::g3si()) {
+    for model in all_models(Material::g3si()) {
         let mut run = model.start(&deps).unwrap();
         for i in 0..50 {
             run.deposit(i, 0.0).unwrap();
@@ -673,7 +693,7 @@ fn a_quenched_run_is_at_ambient_and_carries_on_cooler() {
 #[test]
 fn losses_set_mid_run_act_from_then_on() {
     let deps = schedule();
-    for model in models(Material::g3si()) {
+    for model in all_models(Material::g3si()) {
         let mut run = model.start(&deps).unwrap();
         for i in 0..40 {
             run.deposit(i, 0.0).unwrap();

@@ -77,6 +77,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         probe_every: 0.0,
         source: thermal::voxel::HeatSource::DoubleEllipsoid,
         coarse_plate: false,
+        device: Default::default(),
     };
     let t = std::time::Instant::now();
     let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps).unwrap();

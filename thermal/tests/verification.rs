@@ -85,6 +85,7 @@ fn adiabatic_voxels(
         probe_every: 0.0,
         source: thermal::voxel::HeatSource::DoubleEllipsoid,
         coarse_plate: false,
+        device: Default::default(),
     }
 }
 

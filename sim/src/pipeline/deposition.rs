@@ -230,6 +230,7 @@ pub fn heat_model_of(
             probe_every: 0.0,
             source: thermal::voxel::HeatSource::DoubleEllipsoid,
             coarse_plate: t.coarse_plate,
+            device: t.device,
         }),
     }
 }

@@ -22,6 +22,7 @@ use planner::shapes::Shape;
 use std::fmt::Display;
 use std::path::{Path, PathBuf};
 use thermal::ZERO_CELSIUS_K as KELVIN;
+use thermal::voxel::Device;
 
 /// `[skeleton]`, checked, is the engine's own settings type.
 pub use crate::pipeline::skeleton::SkeletonSettings;
@@ -442,6 +443,34 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
             ));
         }
     };
+    let device = match (t.device.as_str(), model) {
+        ("cpu", _) => Device::Cpu,
+        ("gpu", ThermalModel::Voxel) => Device::Gpu,
+        ("gpu", _) => {
+            return Err(c.fail(
+                "thermal",
+                "device",
+                "\"gpu\" with model = \"thin-wall\"",
+                "\"cpu\" (the GPU runs the voxel model: model = \"voxel\")",
+            ));
+        }
+        (other, _) => {
+            return Err(c.fail(
+                "thermal",
+                "device",
+                format!("\"{other}\""),
+                "\"cpu\" or \"gpu\"",
+            ));
+        }
+    };
+    if device == Device::Gpu && t.coarse_plate {
+        return Err(c.fail(
+            "thermal",
+            "coarse_plate",
+            "true with device = \"gpu\"",
+            "false (the coarsened plate steps on the CPU alone)",
+        ));
+    }
     let settings = ThermalSettings {
         table_contact_w_m2k: t.table_contact_w_m2k,
         plate_cell_m: t
@@ -464,6 +493,7 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         lead_m: t.lead_mm * MM,
         coarse_plate: t.coarse_plate,
         local_steps: t.local_steps,
+        device,
     };
     settings.check().map_err(|e| c.invalid(e))?;
     Ok(settings)

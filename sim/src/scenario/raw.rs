@@ -296,6 +296,8 @@ pub struct RawThermal {
     pub coarse_plate: bool,
     /// Thin wall: the nodes far from the arc stepped at their own, longer rates.
     pub local_steps: bool,
+    /// Voxel model: "cpu" or "gpu" (wgpu's compute shaders; a build with the `gpu` feature).
+    pub device: String,
 }
 
 impl Default for RawThermal {
@@ -318,6 +320,7 @@ impl Default for RawThermal {
             plate_shape: "box".into(),
             coarse_plate: false,
             local_steps: true,
+            device: "cpu".into(),
         }
     }
 }

@@ -17,12 +17,12 @@ use crate::material::Material;
 /// nonlinearity left is one table read per voxel. Interpolation error below 0.01 K.
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub(super) struct Tables {
-    h0: f32,
-    inv_dh: f32,
+    pub(super) h0: f32,
+    pub(super) inv_dh: f32,
     /// Largest index a read may start at (len − 2), as f32 for the clamp.
-    last: f32,
+    pub(super) last: f32,
     /// (T, Φ) pairs: a read takes both values from one place.
-    t_phi: Vec<[f32; 2]>,
+    pub(super) t_phi: Vec<[f32; 2]>,
 }
 
 impl Tables {

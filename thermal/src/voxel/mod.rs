@@ -12,6 +12,8 @@
 //! switched on before anything else, step as cells of edge 2·dx, and meet cells of edge dx
 //! across `seams` (docs/PHYSICS.md "A coarsened plate").
 
+#[cfg(feature = "gpu")]
+mod gpu;
 mod kernel;
 
 use crate::error::ThermalError;
@@ -66,6 +68,19 @@ pub struct VoxelSettings {
     /// arc its field varies slowly. Off: every plate cell of edge `size`.
     #[serde(default)]
     pub coarse_plate: bool,
+    /// Where the steps run: the CPU, or a GPU through wgpu (the `gpu` feature).
+    #[serde(default)]
+    pub device: Device,
+}
+
+/// Where the voxel model steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum Device {
+    /// Rayon over the active set, with the AVX2 kernel where the processor has it.
+    #[default]
+    Cpu,
+    /// A GPU's compute shaders (`gpu.wgsl`), f32 state as on the CPU.
+    Gpu,
 }
 
 /// How the heat of a deposit enters the part.
@@ -169,6 +184,15 @@ pub struct VoxelModel {
     seams: Vec<(u32, u32)>,
     /// The same where the cell of edge dx is deposit on a plate of its own material.
     mixed_seams: Vec<(u32, u32)>,
+    /// On a GPU: the voxels the host changed since the device last took them (switched on,
+    /// a face closed, a temperature put).
+    #[serde(skip)]
+    dirty: Vec<u32>,
+    /// On a GPU: the device's copy of the active set; none in a clone or a resumed run, which
+    /// make their own from the host's copy.
+    #[cfg(feature = "gpu")]
+    #[serde(skip)]
+    field: gpu::Resident,
 }
 
 /// A plate of another material than the deposit: its tables, and the faces where the two meet.
@@ -204,6 +228,28 @@ fn spans(r: std::ops::Range<usize>, bounds: [usize; 2]) -> Vec<(std::ops::Range<
         start = end;
     }
     out
+}
+
+/// Whether the voxel model can step on the device `s` asks for: a GPU needs the `gpu` feature,
+/// an adapter, and a plate of one cell size.
+fn open_device(s: &VoxelSettings) -> Result<(), ThermalError> {
+    if s.coarse_plate {
+        return Err(ThermalError::Device {
+            reason: "the coarsened plate (coarse_plate = true) steps on the CPU alone; set it \
+                     false with the GPU"
+                .into(),
+        });
+    }
+    #[cfg(feature = "gpu")]
+    {
+        gpu::shared()
+            .map(|_| ())
+            .map_err(|reason| ThermalError::Device { reason })
+    }
+    #[cfg(not(feature = "gpu"))]
+    Err(ThermalError::Device {
+        reason: "this build has no GPU backend: build it with the cargo feature `gpu`".into(),
+    })
 }
 
 /// The outward axis of each face, up to sign.
@@ -291,7 +337,13 @@ impl VoxelModel {
             coarse: 0,
             seams: Vec::new(),
             mixed_seams: Vec::new(),
+            dirty: Vec::new(),
+            #[cfg(feature = "gpu")]
+            field: Default::default(),
         };
+        if s.device == Device::Gpu {
+            open_device(s)?;
+        }
         // The plate: every cell whose centre lies inside it; or, coarsened, every block of
         // 2 × 2 × 2 cells whose centre does, but under the metal laid on the plate
         // (`fine_columns`), then the cells left.
@@ -528,6 +580,10 @@ impl VoxelModel {
         for u in touched {
             self.refresh_group(u as usize / 8);
         }
+        if self.settings.device == Device::Gpu {
+            self.dirty.push(v);
+            self.dirty.extend(touched.into_iter().filter(|&u| u != v));
+        }
     }
 
     /// Recompute group g from the neighbour lists, if all its eight voxels exist.
@@ -722,6 +778,7 @@ impl VoxelModel {
             self.phi[v] = phi;
             self.phi_next[v] = phi;
         }
+        self.all_dirty();
     }
 
     /// Active voxels whose centres lie within `radius` of `p` (m), with their distances: the
@@ -774,6 +831,9 @@ impl VoxelModel {
         self.t[i] = t;
         self.phi[i] = phi;
         self.phi_next[i] = phi;
+        if self.settings.device == Device::Gpu {
+            self.dirty.push(v);
+        }
     }
 
     /// Take convection, emissivity and the table's contact conductance from now on (the
@@ -814,10 +874,9 @@ impl VoxelModel {
             .map_or(deposit, |s| deposit.min(one(&s.material, plate_dx)))
     }
 
-    /// One explicit step of length dt with `source` watts into the listed voxels: the 7-point
-    /// update of h on Φ over the active set, losses from each voxel's exposed and table areas,
-    /// then T and Φ from the new h.
-    pub fn step(&mut self, dt: f64, source: &[(u32, f32)]) {
+    /// The constants of a step of dt: a coarse plate cell's, a plate cell's of edge dx, a
+    /// deposit cell's.
+    fn coefficients(&self, dt: f64) -> [Coefficients; 3] {
         let sur = self.settings.surroundings;
         let ta = sur.ambient_k as f32;
         let c = Coefficients {
@@ -845,6 +904,23 @@ impl VoxelModel {
             area: 4.0 * c.area,
             ..c
         };
+        [cc, cp, c]
+    }
+
+    /// Every voxel to be written to the device again: the device's copy is dropped.
+    fn all_dirty(&mut self) {
+        #[cfg(feature = "gpu")]
+        {
+            self.field = Default::default();
+        }
+        self.dirty.clear();
+    }
+
+    /// One explicit step of length dt with `source` watts into the listed voxels: the 7-point
+    /// update of h on Φ over the active set, losses from each voxel's exposed and table areas,
+    /// then T and Φ from the new h.
+    pub fn step(&mut self, dt: f64, source: &[(u32, f32)]) {
+        let [cc, cp, c] = self.coefficients(dt);
         let (coarse, plate_voxels) = (self.coarse, self.plate_voxels);
         let inv_cap = |v: usize| match v {
             v if v < coarse => cc.inv_cap,
@@ -1329,6 +1405,10 @@ impl VoxelRun {
 
     /// One step of `dt` with the current source, and what the results track.
     fn advance(&mut self, dt: f64, source_on: bool) {
+        #[cfg(feature = "gpu")]
+        if self.model.settings.device == Device::Gpu {
+            return self.advance_on_gpu(dt, source_on);
+        }
         let source: &[(u32, f32)] = if source_on { &self.source } else { &[] };
         self.model.step(dt, source);
         self.now += dt;
@@ -1344,6 +1424,71 @@ impl VoxelRun {
                 tr.temperature.push(self.model.metal_t(tr.deposit));
             }
         }
+    }
+
+    /// `advance` on the device: the step and the deposits' peaks there; the field read back
+    /// where the host must read it this step (a trace, a snapshot, a probe falling due).
+    #[cfg(feature = "gpu")]
+    fn advance_on_gpu(&mut self, dt: f64, source_on: bool) {
+        let laid = self.laid + usize::from(source_on);
+        let source: &[(u32, f32)] = if source_on { &self.source } else { &[] };
+        // A trace reads the field every step: then the host observes the metal too, as on the
+        // CPU, so that peaks and traces come from one mean (the device's is f32).
+        let host_observes = !self.traces.is_empty();
+        let observed = if host_observes { 0 } else { laid };
+        self.model.gpu_step(dt, source, observed, self.now + dt);
+        self.now += dt;
+        let times = &self.model.settings.snapshot_times;
+        let snapshot = times
+            .get(self.snapshots.len())
+            .is_some_and(|&t| t <= self.now + 1e-9);
+        let every = self.model.settings.probe_every;
+        let probe = self.probes.iter().any(|tr| {
+            tr.time
+                .last()
+                .is_none_or(|&t| self.now - t >= every - 1e-12)
+        });
+        if !(snapshot || probe || !self.traces.is_empty()) {
+            if self.model.gpu_full() {
+                self.read_device(false);
+            }
+            return;
+        }
+        self.read_device(true);
+        if host_observes {
+            let hottest = self.model.observe(laid, dt, &mut self.points);
+            let on = self.model.settings.trace_hottest;
+            self.hottest.push(on, self.now, hottest);
+        }
+        self.sample_probes();
+        self.model.keep(laid, self.now, &mut self.snapshots);
+        for tr in &mut self.traces {
+            if tr.deposit < laid {
+                tr.time.push(self.now);
+                tr.temperature.push(self.model.metal_t(tr.deposit));
+            }
+        }
+    }
+
+    /// On a GPU, read the device back (with `state`, the field too: the host's copy current).
+    fn read_device(&mut self, state: bool) {
+        #[cfg(feature = "gpu")]
+        if self.model.settings.device == Device::Gpu {
+            let on = self.model.settings.trace_hottest;
+            let (points, hottest) = (&mut self.points, &mut self.hottest);
+            self.model.gpu_read(points, hottest, on, state);
+        }
+        let _ = state;
+    }
+
+    /// On a GPU, the device's copy made where it has none or has outgrown it (the host's copy
+    /// is current whenever this is called).
+    fn device_ready(&mut self) -> Result<(), ThermalError> {
+        #[cfg(feature = "gpu")]
+        if self.model.settings.device == Device::Gpu {
+            return self.model.gpu_ready(&self.points);
+        }
+        Ok(())
     }
 
     /// Keep each probe's temperature, at most every `probe_every` seconds.
@@ -1365,6 +1510,13 @@ impl VoxelRun {
                 .temperature
                 .push(self.probe_voxels[k].map_or(f64::NAN, |v| self.model.temperature(v)));
         }
+    }
+
+    /// Whether a preheat of deposit i's arc falls due once `elapsed` of it has passed.
+    fn reads_due(&self, i: usize, arc: f64, elapsed: f64) -> bool {
+        self.probes_at[i]
+            .get(self.next_probe)
+            .is_some_and(|&(_, f)| f * arc <= elapsed + 1e-9)
     }
 
     /// The preheats read during deposit i's arc of `arc` seconds once `elapsed` of it has passed
@@ -1435,14 +1587,19 @@ impl HeatRun for VoxelRun {
         };
         self.model.source(&self.deps, i, heat, &mut source);
         self.source = source;
+        self.device_ready()?;
         let (mut left, mut elapsed) = (burn.arc_time, 0.0);
         while left > 1e-12 {
             let dt = self.dt_max.min(left);
             self.advance(dt, true);
             left -= dt;
             elapsed += dt;
-            self.read(i, burn.arc_time, elapsed);
+            if self.reads_due(i, burn.arc_time, elapsed) {
+                self.read_device(true);
+                self.read(i, burn.arc_time, elapsed);
+            }
         }
+        self.read_device(true);
         if let Some(t) = self.drops.after(i, burn.drop) {
             self.points[i].preheat = t;
         }
@@ -1455,11 +1612,13 @@ impl HeatRun for VoxelRun {
         if duration <= 1e-9 {
             return Ok(());
         }
+        self.device_ready()?;
         let end = self.now + duration;
         while self.now < end - 1e-9 {
             let dt = self.dt_max.min(end - self.now);
             self.advance(dt, false);
         }
+        self.read_device(true);
         self.check(None)
     }
 
@@ -1702,6 +1861,7 @@ mod tests {
             probe_every: 0.0,
             source: HeatSource::DoubleEllipsoid,
             coarse_plate: false,
+            device: Default::default(),
         };
         (deps, settings)
     }

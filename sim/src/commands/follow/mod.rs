@@ -256,7 +256,9 @@ pub fn run(
     if let Some(v) = live.voxel_m {
         twin_scenario.thermal.voxel_m = v;
     }
-    twin_scenario.thermal.coarse_plate = live.coarse_plate;
+    // The GPU steps every plate cell (coarsening is a CPU economy it does not run).
+    twin_scenario.thermal.coarse_plate =
+        live.coarse_plate && twin_scenario.thermal.device == thermal::voxel::Device::Cpu;
     let r = set_up(&twin_scenario, 1.0)?;
     let priors = priors(&s, &live, &r)?;
     let print = checkpoint::of_run("follow", &s.to_json(), &r.deps);

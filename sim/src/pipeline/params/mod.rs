@@ -195,6 +195,8 @@ pub struct ThermalSettings {
     /// Thin wall: the nodes far from the arc stepped at their own, longer rates
     /// (`thermal::rates`); false: every node at every step (the reference).
     pub local_steps: bool,
+    /// Voxel model: where it steps (`[thermal] device`).
+    pub device: thermal::voxel::Device,
 }
 
 impl Default for ThermalSettings {
@@ -229,6 +231,7 @@ impl ThermalSettings {
             lead_m: d::LEAD_MM * MM,
             coarse_plate: false,
             local_steps: true,
+            device: Default::default(),
         }
     }
 }

@@ -1,0 +1,118 @@
+//! The voxel model on a GPU (`device = Gpu`, the `gpu` feature) against the same model on the
+//! CPU: the issue's tolerances, preheats within 1 % of the rise and the energy balance closed to
+//! 1e-5, on a build that uses every part of the device's step (a plate of its own material, so
+//! the interface's correction; a dwell; probes, traces, snapshots and the hottest metal read
+//! back mid-call). CI runs it on Mesa's software Vulkan (lavapipe, `mesa-vulkan-drivers`).
+
+use thermal::material::Material;
+use thermal::network::Surroundings;
+use thermal::schedule::{Deposit, helix};
+use thermal::voxel::{Device, VoxelSettings};
+use thermal::{HeatModel, HeatRun, Plate, RunResult, ThermalError};
+
+/// Three revolutions of 48 deposits, R 24 mm, 2 mm voxels, on an 80 mm plate of IN718 under a
+/// G3Si1 wall.
+fn build(device: Device) -> (Vec<Deposit>, VoxelSettings) {
+    let deps = helix(0.024, 48, 3, 2e-3, 6e-3, 10e-3, 1700.0);
+    let settings = VoxelSettings {
+        material: Material::g3si(),
+        surroundings: Surroundings {
+            ambient_k: 293.15,
+            convection_w_m2k: 15.0,
+            emissivity: 0.6,
+            table_w_m2k: 100.0,
+        },
+        plate: Plate {
+            size: [0.08, 0.08, 0.01],
+            centre: [0.0, 0.0],
+            cell: 5e-3,
+            layers: 3,
+            disc: false,
+            material: Some(Material::in718()),
+        },
+        size: 2e-3,
+        deposit_temperature: 1823.15,
+        lead: 10e-3,
+        hot_threshold: 873.15,
+        snapshot_times: vec![10.0, 40.0],
+        traces: vec![60],
+        trace_hottest: true,
+        courant: 0.9,
+        probes: vec![[0.024, 0.0, -1e-3], [0.0, 0.024, 5e-3]],
+        probe_every: 0.5,
+        source: thermal::voxel::HeatSource::DoubleEllipsoid,
+        coarse_plate: false,
+        device,
+    };
+    (deps, settings)
+}
+
+/// Every deposit in order, a 20 s dwell before the second revolution, 30 s of cooling at the end.
+fn run(device: Device) -> Result<RunResult, ThermalError> {
+    let (deps, settings) = build(device);
+    let mut run = HeatModel::Voxel(settings).start(&deps)?;
+    for i in 0..deps.len() {
+        let dwell = if i == 48 { 20.0 } else { 0.0 };
+        run.deposit(i, dwell)?;
+    }
+    run.cool(30.0)?;
+    Ok(run.finish())
+}
+
+#[test]
+#[cfg_attr(
+    not(system_tests),
+    ignore = "opt-in, WAAMTWIN_SYSTEM_TESTS=1: a GPU adapter (CI: Mesa's lavapipe)"
+)]
+fn the_gpu_steps_as_the_cpu_does() {
+    let cpu = run(Device::Cpu).unwrap();
+    let gpu = run(Device::Gpu).expect("a GPU adapter (in CI: apt-get install mesa-vulkan-drivers)");
+    let rise = 1823.15 - 293.15;
+    let worst = |f: &dyn Fn(&RunResult) -> Vec<f64>| {
+        f(&cpu)
+            .iter()
+            .zip(f(&gpu))
+            .map(|(a, b)| (a - b).abs() / rise)
+            .fold(0.0, f64::max)
+    };
+    let preheat = worst(&|r| r.points.iter().map(|p| p.preheat).collect());
+    let peak = worst(&|r| r.points.iter().map(|p| p.peak).collect());
+    let probes = worst(&|r| {
+        r.probes
+            .iter()
+            .flat_map(|p| p.temperature.iter().copied().filter(|t| t.is_finite()))
+            .collect()
+    });
+    let snapshots = worst(&|r| {
+        r.snapshots
+            .iter()
+            .flat_map(|s| s.temperature.iter().copied())
+            .collect()
+    });
+    let above = cpu
+        .points
+        .iter()
+        .zip(&gpu.points)
+        .map(|(a, b)| (a.time_above - b.time_above).abs())
+        .fold(0.0, f64::max);
+    let lost = |r: &RunResult| r.ledger.lost();
+    let e = cpu.ledger.energy_in();
+    eprintln!(
+        "GPU against CPU, worst share of the rise: preheats {preheat:.2e}, peaks {peak:.2e}, \
+         probes {probes:.2e}, snapshots {snapshots:.2e}; time above {above:.3} s; balance \
+         {:.1e} (CPU {:.1e}); losses {:.2e} of the energy in",
+        gpu.balance_error,
+        cpu.balance_error,
+        (lost(&cpu) - lost(&gpu)).abs() / e
+    );
+    assert!(preheat < 0.01, "preheats {preheat}");
+    assert!(peak < 0.01 && probes < 0.01 && snapshots < 0.01);
+    assert!(gpu.balance_error.abs() < 1e-5, "{}", gpu.balance_error);
+    assert!((lost(&cpu) - lost(&gpu)).abs() / e < 1e-3);
+    // The same records, read at the same times.
+    assert_eq!(cpu.probes[0].time, gpu.probes[0].time);
+    assert_eq!(cpu.traces[0].time, gpu.traces[0].time);
+    assert_eq!(cpu.hottest.time, gpu.hottest.time);
+    assert_eq!(cpu.steps, gpu.steps);
+    assert!(above < 0.1, "time above {above} s");
+}
