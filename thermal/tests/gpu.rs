@@ -1,8 +1,10 @@
 //! The voxel model on a GPU (`device = Gpu`, the `gpu` feature) against the same model on the
 //! CPU: the issue's tolerances, preheats within 1 % of the rise and the energy balance closed to
 //! 1e-5, on a build that uses every part of the device's step (a plate of its own material, so
-//! the interface's correction; a dwell; probes, traces, snapshots and the hottest metal read
-//! back mid-call). CI runs it on Mesa's software Vulkan (lavapipe, `mesa-vulkan-drivers`).
+//! the interface's correction; a dwell; probes, snapshots and the hottest metal read back
+//! mid-call; the deposits' peaks and times above kept on the device). The contract's tests run
+//! on it too (`contract.rs`, with the `gpu` feature and `WAAMTWIN_SYSTEM_TESTS=1`). CI runs both
+//! on Mesa's software Vulkan (lavapipe, `mesa-vulkan-drivers`).
 
 use thermal::material::Material;
 use thermal::network::Surroundings;
@@ -35,7 +37,8 @@ fn build(device: Device) -> (Vec<Deposit>, VoxelSettings) {
         lead: 10e-3,
         hot_threshold: 873.15,
         snapshot_times: vec![10.0, 40.0],
-        traces: vec![60],
+        // No trace: a trace has the host observe the metal every step; without, the device does.
+        traces: vec![],
         trace_hottest: true,
         courant: 0.9,
         probes: vec![[0.024, 0.0, -1e-3], [0.0, 0.024, 5e-3]],
@@ -105,13 +108,21 @@ fn the_gpu_steps_as_the_cpu_does() {
         cpu.balance_error,
         (lost(&cpu) - lost(&gpu)).abs() / e
     );
-    assert!(preheat < 0.01, "preheats {preheat}");
-    assert!(peak < 0.01 && probes < 0.01 && snapshots < 0.01);
+    // The issue asks 1 % of the rise; the device does the CPU's arithmetic in the same f32, so
+    // the two differ by rounding alone (2e-7 measured on lavapipe): 1e-5 would catch a term
+    // dropped or a neighbour misread, which the 1 % would let through.
+    for (what, x) in [
+        ("preheats", preheat),
+        ("peaks", peak),
+        ("probes", probes),
+        ("snapshots", snapshots),
+    ] {
+        assert!(x < 1e-5, "{what}: {x} of the rise");
+    }
     assert!(gpu.balance_error.abs() < 1e-5, "{}", gpu.balance_error);
-    assert!((lost(&cpu) - lost(&gpu)).abs() / e < 1e-3);
+    assert!((lost(&cpu) - lost(&gpu)).abs() / e < 1e-5);
     // The same records, read at the same times.
     assert_eq!(cpu.probes[0].time, gpu.probes[0].time);
-    assert_eq!(cpu.traces[0].time, gpu.traces[0].time);
     assert_eq!(cpu.hottest.time, gpu.hottest.time);
     assert_eq!(cpu.steps, gpu.steps);
     assert!(above < 0.1, "time above {above} s");

@@ -308,6 +308,8 @@ pub(super) struct Field {
     dep_vox: usize,
     n_sources: usize,
     encoder: Option<wgpu::CommandEncoder>,
+    /// The read-back buffer, kept between reads.
+    staging: Option<wgpu::Buffer>,
     /// Uniforms of the steps recorded since the last submission.
     slots: Vec<Params>,
     /// The time at the end of each step since the last read of the hottest metal.
@@ -316,6 +318,17 @@ pub(super) struct Field {
     acc_groups: usize,
     /// The arc's heat the device has (voxel, W), as the host gave it.
     staged_sources: Vec<(u32, f32)>,
+}
+
+/// What a read brings back beside the loss sums and the hottest metal.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) enum Read {
+    Sums,
+    /// The voxels' temperatures: what the host reads within a call (a preheat, a probe, a
+    /// snapshot, a trace).
+    Temperatures,
+    /// The whole field and the deposits' peaks: the host's copy current, as at a call's end.
+    All,
 }
 
 /// What a read back brings: the loss sums (Σ dt·exposed·(T − T_a), Σ dt·exposed·(T⁴ − T_a⁴),
@@ -446,6 +459,7 @@ impl Field {
             dep_vox: 0,
             n_sources: 0,
             encoder: None,
+            staging: None,
             slots: Vec::new(),
             hot_times: Vec::new(),
             acc_groups: 0,
@@ -672,29 +686,37 @@ impl Field {
         self.slots.clear();
     }
 
-    /// Read back what the steps since the last read left: with `state`, the voxels' h, T and Φ
-    /// into the model and each laid deposit's peak and time above into `points`; always the
-    /// loss sums and the hottest laid metal of each step (into `hottest` when `on`). Clears
-    /// the device's running sums.
+    /// Read back what the steps since the last read left: always the loss sums and the
+    /// hottest laid metal of each step (into `hottest` when `on`), and as `what` asks the
+    /// voxels' temperatures, or the whole field (h, T, Φ) with each laid deposit's peak and
+    /// time above (into `points`). Clears the device's running sums.
     pub(super) fn read(
         &mut self,
         m: &mut VoxelModel,
         points: &mut [PointResult],
         hottest: &mut Hottest,
         on: bool,
-        state: bool,
+        what: Read,
     ) -> Readback {
-        let n = if state { self.n } else { 0 };
-        let deps = if state { self.deps } else { 0 };
+        let (n_t, n) = match what {
+            Read::Sums => (0, 0),
+            Read::Temperatures => (self.n, 0),
+            Read::All => (self.n, self.n),
+        };
+        let deps = if what == Read::All { self.deps } else { 0 };
         let (acc, hot) = (6 * self.acc_groups, self.hot_times.len());
-        let words = 3 * n + 2 * deps + acc + hot;
+        let words = n_t + 2 * n + 2 * deps + acc + hot;
         let g = self.gpu.clone();
-        let staging = g.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("read back"),
-            size: (4 * words.max(4)) as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let bytes = (4 * words.max(4)) as u64;
+        if self.staging.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.staging = Some(g.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("read back"),
+                size: bytes.next_power_of_two(),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        let staging = self.staging.clone().expect("made above");
         let mut encoder = self.encoder.take().unwrap_or_else(|| {
             g.device
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
@@ -704,7 +726,7 @@ impl Field {
         let phi = &b.phi[self.parity];
         let parts: [(&wgpu::Buffer, usize); 7] = [
             (&b.h, n),
-            (&b.t, n),
+            (&b.t, n_t),
             (phi, n),
             (&b.peak, deps),
             (&b.above, deps),
@@ -724,7 +746,7 @@ impl Field {
         encoder.clear_buffer(&b.hot, 0, None);
         self.encoder = Some(encoder);
         self.submit();
-        let slice = staging.slice(..);
+        let slice = staging.slice(..bytes);
         slice.map_async(wgpu::MapMode::Read, |r| {
             r.expect("mapping the read-back buffer")
         });
@@ -734,15 +756,17 @@ impl Field {
         let view = slice.get_mapped_range().expect("the mapped read-back");
         let words: &[f32] = bytemuck::cast_slice(&view);
         let (h, rest) = words.split_at(n);
-        let (t, rest) = rest.split_at(n);
+        let (t, rest) = rest.split_at(n_t);
         let (p, rest) = rest.split_at(n);
         let (peak, rest) = rest.split_at(deps);
         let (above, rest) = rest.split_at(deps);
         let (sums, rest) = rest.split_at(acc);
         let hot_bits = &rest[..hot];
-        if state {
-            m.h.copy_from_slice(h);
+        if n_t > 0 {
             m.t.copy_from_slice(t);
+        }
+        if what == Read::All {
+            m.h.copy_from_slice(h);
             m.phi.copy_from_slice(p);
             m.phi_next.copy_from_slice(p);
             for ((pt, &pk), &up) in points.iter_mut().zip(peak).zip(above) {
@@ -851,19 +875,19 @@ impl VoxelModel {
     }
 
     /// Read the device back: the losses into the ledger, the hottest laid metal of each step
-    /// into `hottest` (when `on`), and with `state` the field into the host's copy and the
-    /// deposits' peaks and times above into `points`.
+    /// into `hottest` (when `on`), and what `what` asks into the host's copy (the deposits'
+    /// peaks and times above into `points`).
     pub(super) fn gpu_read(
         &mut self,
         points: &mut [PointResult],
         hottest: &mut Hottest,
         on: bool,
-        state: bool,
+        what: Read,
     ) {
         let Some(mut field) = self.field.0.take() else {
             return;
         };
-        let r = field.read(self, points, hottest, on, state);
+        let r = field.read(self, points, hottest, on, what);
         self.field.0 = Some(field);
         let sur = self.settings.surroundings;
         self.ledger.convection += sur.convection_w_m2k as f32 as f64 * r.sums[0];

@@ -16,6 +16,18 @@
 mod gpu;
 mod kernel;
 
+#[cfg(feature = "gpu")]
+use gpu::Read;
+/// What a read of the device brings back (none without the `gpu` feature).
+#[cfg(not(feature = "gpu"))]
+#[derive(Clone, Copy)]
+#[allow(dead_code)]
+enum Read {
+    Sums,
+    Temperatures,
+    All,
+}
+
 use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Ledger, SIGMA, Surroundings};
@@ -1450,11 +1462,11 @@ impl VoxelRun {
         });
         if !(snapshot || probe || !self.traces.is_empty()) {
             if self.model.gpu_full() {
-                self.read_device(false);
+                self.read_device(Read::Sums);
             }
             return;
         }
-        self.read_device(true);
+        self.read_device(Read::Temperatures);
         if host_observes {
             let hottest = self.model.observe(laid, dt, &mut self.points);
             let on = self.model.settings.trace_hottest;
@@ -1470,15 +1482,17 @@ impl VoxelRun {
         }
     }
 
-    /// On a GPU, read the device back (with `state`, the field too: the host's copy current).
-    fn read_device(&mut self, state: bool) {
+    /// On a GPU, read the device back: the losses and the hottest metal, and with `what`
+    /// the temperatures (`Temperatures`, mid-call) or the whole field (`All`, the host's copy
+    /// current, as every call ends).
+    fn read_device(&mut self, what: Read) {
         #[cfg(feature = "gpu")]
         if self.model.settings.device == Device::Gpu {
             let on = self.model.settings.trace_hottest;
             let (points, hottest) = (&mut self.points, &mut self.hottest);
-            self.model.gpu_read(points, hottest, on, state);
+            self.model.gpu_read(points, hottest, on, what);
         }
-        let _ = state;
+        let _ = what;
     }
 
     /// On a GPU, the device's copy made where it has none or has outgrown it (the host's copy
@@ -1595,11 +1609,11 @@ impl HeatRun for VoxelRun {
             left -= dt;
             elapsed += dt;
             if self.reads_due(i, burn.arc_time, elapsed) {
-                self.read_device(true);
+                self.read_device(Read::Temperatures);
                 self.read(i, burn.arc_time, elapsed);
             }
         }
-        self.read_device(true);
+        self.read_device(Read::All);
         if let Some(t) = self.drops.after(i, burn.drop) {
             self.points[i].preheat = t;
         }
@@ -1618,7 +1632,7 @@ impl HeatRun for VoxelRun {
             let dt = self.dt_max.min(end - self.now);
             self.advance(dt, false);
         }
-        self.read_device(true);
+        self.read_device(Read::All);
         self.check(None)
     }
 
