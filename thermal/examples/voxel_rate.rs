@@ -1,7 +1,7 @@
 //! Updates per second of the voxel model's step, on the CPU or a GPU: a plate of about
 //! `VOXELS` cells of 1 mm, a hot block in its middle, cooled for `STEPS` explicit steps, timed
-//! twice (STEPS/2 then STEPS more) so that the fixed costs (the device's copy made, the field
-//! read back) fall out of the difference.
+//! twice after 10 steps that make the device's copy (STEPS/2, then STEPS) so that the fixed
+//! cost of a call (the field read back at its end) falls out of the difference.
 //!
 //! `cargo run --release -p thermal --features gpu --example voxel_rate -- VOXELS STEPS gpu|cpu`
 
@@ -73,13 +73,17 @@ fn main() {
         run.cool(k as f64 * dt).expect("a stable run");
         t.elapsed().as_secs_f64()
     };
+    // The device's copy made and its shader warm before the clock starts.
+    let warm = timed(10);
     let first = timed(steps / 2);
     let second = timed(steps);
     let rate = (steps - steps / 2) as f64 * n as f64 / (second - first);
     let name = run.model().gpu_name().unwrap_or_else(|| "CPU".into());
+    let regular = run.model().gpu_regular().unwrap_or(0);
     println!(
-        "{name}: {n} voxels ({} hot), built in {built:.1} s; {} steps {first:.3} s, {steps} steps \
-         {second:.3} s; {rate:.3e} updates/s (difference), {:.3e} (whole)",
+        "{name}: {n} voxels ({regular} regular, {} hot), built in {built:.1} s, first 10 steps \
+         {warm:.3} s; {} steps {first:.3} s, {steps} steps {second:.3} s; {rate:.3e} updates/s \
+         (difference), {:.3e} (whole)",
         hot.len(),
         steps / 2,
         steps as f64 * n as f64 / second

@@ -127,3 +127,48 @@ fn the_gpu_steps_as_the_cpu_does() {
     assert_eq!(cpu.steps, gpu.steps);
     assert!(above < 0.1, "time above {above} s");
 }
+
+/// A plate alone with a hot block in it: most of its voxels step on the shader's fast path
+/// (six neighbours at fixed strides, nothing exposed), the rest on the neighbour table; every
+/// voxel's temperature after 60 steps agrees with the CPU's to f32 rounding.
+#[test]
+#[cfg_attr(
+    not(system_tests),
+    ignore = "opt-in, WAAMTWIN_SYSTEM_TESTS=1: a GPU adapter (CI: Mesa's lavapipe)"
+)]
+fn a_plate_steps_on_the_fast_path_as_on_the_cpu() {
+    use thermal::voxel::{VoxelModel, VoxelRun};
+    let field = |device: Device| {
+        let (_, mut s) = build(device);
+        s.plate.material = None;
+        s.plate.size = [0.04, 0.03, 0.012];
+        s.size = 1e-3;
+        let mut run = VoxelRun::new(VoxelModel::new(&[], &s).unwrap(), &[]).unwrap();
+        for (v, _) in run.model().voxels_within([0.0, 0.0, -0.006], 0.008) {
+            run.model_mut().set_temperature(v, 1500.0);
+        }
+        run.cool(60.0 * run.model().stable_step()).unwrap();
+        let regular = run.model().gpu_regular();
+        let n = run.voxels() as u32;
+        let t: Vec<f64> = (0..n).map(|v| run.model().temperature(v)).collect();
+        (t, regular)
+    };
+    let (cpu, _) = field(Device::Cpu);
+    let (gpu, regular) = field(Device::Gpu);
+    let regular = regular.expect("a device");
+    assert!(
+        regular > gpu.len() / 2,
+        "{regular} of {} regular",
+        gpu.len()
+    );
+    let worst = cpu
+        .iter()
+        .zip(&gpu)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    eprintln!(
+        "{regular} of {} voxels regular; worst {worst:.2e} K",
+        gpu.len()
+    );
+    assert!(worst < 1e-3, "{worst} K");
+}

@@ -200,6 +200,9 @@ pub(super) struct Params {
     pub k_offset: u32,
     pub k_last: f32,
     pub nx: u32,
+    pub sy: u32,
+    pub sz: u32,
+    pub pad: [u32; 2],
 }
 
 /// A voxel the host wrote: the shader's `Record`.
@@ -301,6 +304,10 @@ pub(super) struct Field {
     /// Per parity: Φ read from `phi[parity]`, written to the other.
     groups: [wgpu::BindGroup; 2],
     parity: usize,
+    /// A regular voxel's strides across y and z (`area_of`).
+    strides: [u32; 2],
+    /// Voxels regular when the field was made.
+    regular: usize,
     /// Voxels, interface pairs and laid deposits the device has.
     n: usize,
     pairs: usize,
@@ -346,6 +353,39 @@ fn storage(gpu: &Gpu, label: &str, bytes: usize) -> wgpu::Buffer {
             | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     })
+}
+
+/// A regular voxel's strides across y and z: those of the first plate voxel with all six
+/// neighbours and its x neighbours next to it (a box plate is laid in grid order, row by row
+/// across the plate, so its inside has one pair of strides); none where no voxel has them.
+fn strides(m: &VoxelModel) -> [u32; 2] {
+    let nb = &m.neighbours;
+    (0..m.plate_voxels.min(m.h.len()))
+        .find(|&i| {
+            i > 0
+                && nb[0][i] as usize == i - 1
+                && nb[1][i] as usize == i + 1
+                && nb[3][i] as usize > i + 1
+                && nb[5][i] > nb[3][i]
+        })
+        .map_or([u32::MAX; 2], |i| {
+            [nb[3][i] - i as u32, nb[5][i] - i as u32]
+        })
+}
+
+/// Voxel i's (exposed, table) areas for the device: (−1, 0) where it is regular, its six
+/// neighbours at i ± 1, i ± sy, i ± sz (`strides`) and nothing exposed (the shader's fast
+/// path).
+fn area_of(m: &VoxelModel, i: usize, [sy, sz]: [u32; 2]) -> [f32; 2] {
+    let (a, b) = (m.exposed[i], m.on_table[i]);
+    let (sy, sz) = (sy as i64, sz as i64);
+    let step = [-1, 1, -sy, sy, -sz, sz];
+    // A face closed after it was counted open leaves its area's rounding (1e-22 m²), not 0.
+    let closed = 1e-6 * (m.settings.size * m.settings.size) as f32;
+    let regular = a.abs() <= closed
+        && b == 0.0
+        && (0..6).all(|f| m.neighbours[f][i] as i64 == i as i64 + step[f]);
+    if regular { [-1.0, 0.0] } else { [a, b] }
 }
 
 fn tables_of(m: &VoxelModel) -> (Vec<[f32; 2]>, Vec<f32>) {
@@ -434,12 +474,9 @@ impl Field {
         for (f, nb) in m.neighbours.iter().enumerate() {
             q.write_buffer(&b.nb, (4 * f * cap.voxels) as u64, bytemuck::cast_slice(nb));
         }
-        let area: Vec<[f32; 2]> = m
-            .exposed
-            .iter()
-            .zip(&m.on_table)
-            .map(|(&a, &t)| [a, t])
-            .collect();
+        let strides = strides(m);
+        let area: Vec<[f32; 2]> = (0..n).map(|i| area_of(m, i, strides)).collect();
+        let regular = area.iter().filter(|a| a[0] < 0.0).count();
         write(q, &b.area, &area);
         write(q, &b.h, &m.h);
         write(q, &b.t, &m.t);
@@ -453,6 +490,8 @@ impl Field {
             b,
             groups,
             parity: 0,
+            strides,
+            regular,
             n,
             pairs: 0,
             deps: 0,
@@ -567,8 +606,8 @@ impl Field {
                     Record {
                         v,
                         nb: std::array::from_fn(|f| m.neighbours[f][i]),
-                        exposed: m.exposed[i],
-                        table: m.on_table[i],
+                        exposed: area_of(m, i, self.strides)[0],
+                        table: area_of(m, i, self.strides)[1],
                         h: m.h[i],
                         t: m.t[i],
                         phi: m.phi[i],
@@ -611,6 +650,8 @@ impl Field {
             hot_slot: self.hot_times.len() as u32,
             k_offset: (K_LAST + 1) as u32,
             k_last: K_LAST as f32,
+            sy: self.strides[0],
+            sz: self.strides[1],
             ..p
         };
         let widest = self.n.max(self.n_sources).max(self.pairs).max(self.deps);
@@ -898,5 +939,11 @@ impl VoxelModel {
     /// The adapter's name, where the model has a device.
     pub fn gpu_name(&self) -> Option<String> {
         self.field.0.as_ref().map(|f| f.gpu.name.clone())
+    }
+
+    /// Of the voxels on the device when its copy was made, those it steps without reading
+    /// their neighbour table (`area_of`), where the model has a device.
+    pub fn gpu_regular(&self) -> Option<usize> {
+        self.field.0.as_ref().map(|f| f.regular)
     }
 }

@@ -36,6 +36,10 @@ struct Params {
     k_offset: u32,     // the plate's first entry in `conductivity`
     k_last: f32,       // last whole kelvin of each conductivity table
     nx: u32,           // workgroups along x: a dispatch wider than the device's limit wraps to y
+    sy: u32,           // a regular voxel's neighbours across y and z: v ± sy, v ± sz
+    sz: u32,
+    pad0: u32,
+    pad1: u32,
 };
 
 // A voxel the host wrote: its neighbours, exposed and table areas, and state.
@@ -57,7 +61,10 @@ struct Source {
 
 @group(0) @binding(0) var<uniform> p: Params;
 @group(0) @binding(1) var<storage, read_write> nb: array<u32>;      // face f of voxel v at f·cap + v
-@group(0) @binding(2) var<storage, read_write> area: array<vec2<f32>>; // (exposed, table), m²
+// (exposed, table), m² (a closed face leaves rounding: −1e−20 is no marker); (−1, 0) marks a regular voxel: all six neighbours active at v ± 1,
+// v ± sy, v ± sz (the plate's inside, laid in grid order), nothing exposed: the step reads
+// neither its neighbour table nor its temperature.
+@group(0) @binding(2) var<storage, read_write> area: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read_write> h: array<f32>;
 @group(0) @binding(4) var<storage, read_write> t: array<f32>;
 @group(0) @binding(5) var<storage, read_write> phi_in: array<f32>;
@@ -123,7 +130,7 @@ fn scatter(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
     for (var f = 0u; f < 6u; f++) {
         nb[f * p.cap + rec.v] = rec.nb[f];
     }
-    area[rec.v] = vec2<f32>(rec.exposed, rec.table);
+    area[rec.v] = vec2<f32>(rec.exposed, rec.table); // the host marks a regular voxel
     h[rec.v] = rec.h;
     t[rec.v] = rec.t;
     phi_in[rec.v] = rec.phi;
@@ -162,27 +169,34 @@ fn step(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     let v = index(wg, l);
     var sums = vec3<f32>(0.0);
     if v < p.n {
-        let c = p.cap;
-        let ring = phi_in[nb[v]] + phi_in[nb[c + v]] + phi_in[nb[2u * c + v]]
-            + phi_in[nb[3u * c + v]] + phi_in[nb[4u * c + v]] + phi_in[nb[5u * c + v]];
-        let lap = ring - 6.0 * phi_in[v];
-        let ti = t[v];
-        let d = ti - p.ta;
-        let t2 = ti * ti;
-        let rad = t2 * t2 - p.ta4;
         let ab = area[v];
-        let flux = p.dx * lap - (p.h_conv * ab.x + p.h_table * ab.y) * d - p.eps_sigma * ab.x * rad;
         let plate = v < p.plate_end;
         var cap = p.cap_d;
         if plate {
             cap = p.cap_p;
+        }
+        var flux: f32;
+        if ab.x < -0.5 {
+            let ring = phi_in[v - 1u] + phi_in[v + 1u] + phi_in[v - p.sy] + phi_in[v + p.sy]
+                + phi_in[v - p.sz] + phi_in[v + p.sz];
+            flux = p.dx * (ring - 6.0 * phi_in[v]);
+        } else {
+            let c = p.cap;
+            let ring = phi_in[nb[v]] + phi_in[nb[c + v]] + phi_in[nb[2u * c + v]]
+                + phi_in[nb[3u * c + v]] + phi_in[nb[4u * c + v]] + phi_in[nb[5u * c + v]];
+            let lap = ring - 6.0 * phi_in[v];
+            let ti = t[v];
+            let d = ti - p.ta;
+            let t2 = ti * ti;
+            let rad = t2 * t2 - p.ta4;
+            flux = p.dx * lap - (p.h_conv * ab.x + p.h_table * ab.y) * d - p.eps_sigma * ab.x * rad;
+            sums = vec3<f32>(ab.x * d, ab.x * rad, ab.y * d);
         }
         let hv = h[v] + cap * flux;
         h[v] = hv;
         let tp = lookup(hv, plate);
         t[v] = tp.x;
         phi_out[v] = tp.y;
-        sums = vec3<f32>(ab.x * d, ab.x * rad, ab.y * d);
     }
     red[l] = sums;
     workgroupBarrier();
