@@ -26,6 +26,9 @@ pub enum ThermalError {
     /// The voxel model was asked to run on a GPU (`VoxelSettings::device`) and cannot: no
     /// adapter, a build without the `gpu` feature, or a setting the device does not run.
     Device { reason: String },
+    /// The GPU failed during a run (a device lost, results that did not come back): not the
+    /// input's failure.
+    DeviceLost { time_s: f64, reason: String },
     /// The caller asked every run to stop ([`crate::run::request_stop`]): not a failure of the
     /// model, and not the input's.
     Stopped { time_s: f64 },
@@ -37,7 +40,9 @@ impl ThermalError {
     pub fn is_input(&self) -> bool {
         !matches!(
             self,
-            ThermalError::NonFinite { .. } | ThermalError::Stopped { .. }
+            ThermalError::NonFinite { .. }
+                | ThermalError::Stopped { .. }
+                | ThermalError::DeviceLost { .. }
         )
     }
 }
@@ -47,6 +52,9 @@ impl fmt::Display for ThermalError {
         match self {
             ThermalError::Schedule { deposit, reason } => write!(f, "deposit {deposit}: {reason}"),
             ThermalError::Plate { reason } => write!(f, "plate: {reason}"),
+            ThermalError::DeviceLost { time_s, reason } => {
+                write!(f, "the GPU failed at t = {time_s:.3} s: {reason}")
+            }
             ThermalError::Device { reason } => {
                 write!(f, "[thermal] device = \"gpu\": {reason}")
             }

@@ -154,3 +154,31 @@ fn the_engine_and_the_reader_refuse_a_value_alike() {
         "planner.gap_max_mm = -1; expected a number in (0, 100]"
     );
 }
+
+/// `[thermal] device`: "cpu" by default, "gpu" for the voxel model; the thin wall, a coarsened
+/// plate and an unknown device are refused with the file, line, key and what was expected.
+#[test]
+fn the_gpu_is_the_voxel_models_and_named_when_refused() {
+    let base = "[part]\nshape = \"hemisphere\"\nradius_mm = 30.0\n[thermal]\n";
+    let s = parse(base).unwrap();
+    assert_eq!(s.thermal.device, Device::Cpu);
+    let s = parse(&format!("{base}model = \"voxel\"\ndevice = \"gpu\"\n")).unwrap();
+    assert_eq!(s.thermal.device, Device::Gpu);
+    for (keys, needle) in [
+        (
+            "device = \"gpu\"\n",
+            "s.toml line 5: thermal.device = \"gpu\" with model",
+        ),
+        (
+            "model = \"voxel\"\ndevice = \"gpu\"\ncoarse_plate = true\n",
+            "line 7: thermal.coarse_plate = true with device = \"gpu\"",
+        ),
+        (
+            "model = \"voxel\"\ndevice = \"cuda\"\n",
+            "\"cpu\" or \"gpu\"",
+        ),
+    ] {
+        let e = parse(&format!("{base}{keys}")).unwrap_err().to_string();
+        assert!(e.contains(needle), "{e}");
+    }
+}

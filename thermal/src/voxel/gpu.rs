@@ -738,7 +738,7 @@ impl Field {
         hottest: &mut Hottest,
         on: bool,
         what: Read,
-    ) -> Readback {
+    ) -> Result<Readback, String> {
         let (n_t, n) = match what {
             Read::Sums => (0, 0),
             Read::Temperatures => (self.n, 0),
@@ -788,13 +788,21 @@ impl Field {
         self.encoder = Some(encoder);
         self.submit();
         let slice = staging.slice(..bytes);
-        slice.map_async(wgpu::MapMode::Read, |r| {
-            r.expect("mapping the read-back buffer")
+        let (sent, mapped) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = sent.send(r);
         });
         g.device
             .poll(wgpu::PollType::wait_indefinitely())
-            .expect("waiting for the device");
-        let view = slice.get_mapped_range().expect("the mapped read-back");
+            .map_err(|e| format!("the device did not finish its steps: {e}"))?;
+        mapped
+            .recv()
+            .map_err(|e| e.to_string())
+            .and_then(|r| r.map_err(|e| e.to_string()))
+            .map_err(|e| format!("the device's results could not be read: {e}"))?;
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| format!("the device's results could not be read: {e}"))?;
         let words: &[f32] = bytemuck::cast_slice(&view);
         let (h, rest) = words.split_at(n);
         let (t, rest) = rest.split_at(n_t);
@@ -832,7 +840,7 @@ impl Field {
         staging.unmap();
         self.hot_times.clear();
         self.acc_groups = 0;
-        Readback { sums: total }
+        Ok(Readback { sums: total })
     }
 }
 
@@ -844,12 +852,13 @@ fn write<T: Pod>(q: &wgpu::Queue, buf: &wgpu::Buffer, data: &[T]) {
 
 /// The device's copy of a model, if it has one. A clone has none: it makes its own from the
 /// host's copy, which is current between calls.
+/// And the first failure of the device, which ends the run at its next check.
 #[derive(Default)]
-pub(super) struct Resident(Option<Box<Field>>);
+pub(super) struct Resident(Option<Box<Field>>, Option<String>);
 
 impl Clone for Resident {
     fn clone(&self) -> Resident {
-        Resident(None)
+        Resident(None, None)
     }
 }
 
@@ -930,10 +939,22 @@ impl VoxelModel {
         };
         let r = field.read(self, points, hottest, on, what);
         self.field.0 = Some(field);
+        let r = match r {
+            Ok(r) => r,
+            Err(reason) => {
+                self.field.1.get_or_insert(reason);
+                return;
+            }
+        };
         let sur = self.settings.surroundings;
         self.ledger.convection += sur.convection_w_m2k as f32 as f64 * r.sums[0];
         self.ledger.radiation += (sur.emissivity * SIGMA) as f32 as f64 * r.sums[1];
         self.ledger.table += sur.table_w_m2k as f32 as f64 * r.sums[2];
+    }
+
+    /// Why the device failed, if it did (a device lost, a read that did not come back).
+    pub(super) fn gpu_failure(&self) -> Option<&str> {
+        self.field.1.as_deref()
     }
 
     /// The adapter's name, where the model has a device.

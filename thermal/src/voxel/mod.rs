@@ -1549,6 +1549,13 @@ impl VoxelRun {
     /// `deposit` and in the ledger, and on every voxel when either is off or after a cooling.
     fn check(&self, deposit: Option<usize>) -> Result<(), ThermalError> {
         let m = &self.model;
+        #[cfg(feature = "gpu")]
+        if let Some(reason) = m.gpu_failure() {
+            return Err(ThermalError::DeviceLost {
+                time_s: self.now,
+                reason: reason.to_string(),
+            });
+        }
         let fine = |i: usize| m.mean_t(&m.laid[i]).is_finite() && m.ledger.lost().is_finite();
         if deposit.is_some_and(fine) {
             return Ok(());
