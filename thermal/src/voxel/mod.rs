@@ -1425,9 +1425,20 @@ impl VoxelRun {
         self.model.step(dt, source);
         self.now += dt;
         let laid = self.laid + usize::from(source_on);
+        self.observe(laid, dt);
+        self.record(laid);
+    }
+
+    /// The laid metal's peaks and times above after a step of dt, and the hottest of it.
+    fn observe(&mut self, laid: usize, dt: f64) {
         let hottest = self.model.observe(laid, dt, &mut self.points);
         let on = self.model.settings.trace_hottest;
         self.hottest.push(on, self.now, hottest);
+    }
+
+    /// What the run keeps of the field after a step: probes falling due, snapshots reached,
+    /// traces of deposits 0..laid.
+    fn record(&mut self, laid: usize) {
         self.sample_probes();
         self.model.keep(laid, self.now, &mut self.snapshots);
         for tr in &mut self.traces {
@@ -1468,18 +1479,9 @@ impl VoxelRun {
         }
         self.read_device(Read::Temperatures);
         if host_observes {
-            let hottest = self.model.observe(laid, dt, &mut self.points);
-            let on = self.model.settings.trace_hottest;
-            self.hottest.push(on, self.now, hottest);
+            self.observe(laid, dt);
         }
-        self.sample_probes();
-        self.model.keep(laid, self.now, &mut self.snapshots);
-        for tr in &mut self.traces {
-            if tr.deposit < laid {
-                tr.time.push(self.now);
-                tr.temperature.push(self.model.metal_t(tr.deposit));
-            }
-        }
+        self.record(laid);
     }
 
     /// On a GPU, read the device back: the losses and the hottest metal, and with `what`
