@@ -13,7 +13,11 @@
 //! when read back; each laid deposit's peak and time above the threshold likewise.
 //!
 //! Not done on the device: the coarsened plate's seams (`coarse_plate` is refused with the
-//! GPU: the device has the throughput that coarsening buys on a CPU).
+//! GPU: the device has the throughput that coarsening buys on a CPU). The price of the rule:
+//! every call reads the whole field back (12 bytes a voxel), so a run's cost on the device
+//! still grows as deposits × voxels, if with a far smaller constant; reading back only the
+//! voxels the host asks for would take that out, and needs the host's reads (a clone, a
+//! checkpoint written) to come through the device.
 
 use super::VoxelModel;
 use crate::error::ThermalError;
@@ -50,7 +54,7 @@ struct Pipelines {
     scatter: wgpu::ComputePipeline,
     prologue: wgpu::ComputePipeline,
     step: wgpu::ComputePipeline,
-    interface: wgpu::ComputePipeline,
+    bond: wgpu::ComputePipeline,
     observe: wgpu::ComputePipeline,
 }
 
@@ -138,7 +142,7 @@ impl Gpu {
             scatter: pipeline("scatter"),
             prologue: pipeline("prologue"),
             step: pipeline("step"),
-            interface: pipeline("bond"),
+            bond: pipeline("bond"),
             observe: pipeline("observe"),
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -671,7 +675,7 @@ impl Field {
             pass.dispatch_workgroups(x, y, 1);
             if p.n_pairs > 0 {
                 let (x, y) = g.grid(p.n_pairs as usize);
-                pass.set_pipeline(&g.pipelines.interface);
+                pass.set_pipeline(&g.pipelines.bond);
                 pass.dispatch_workgroups(x, y, 1);
             }
             if p.n_deps > 0 {
