@@ -607,11 +607,12 @@ impl Field {
                 .iter()
                 .map(|&v| {
                     let i = v as usize;
+                    let [exposed, table] = area_of(m, i, self.strides);
                     Record {
                         v,
                         nb: std::array::from_fn(|f| m.neighbours[f][i]),
-                        exposed: area_of(m, i, self.strides)[0],
-                        table: area_of(m, i, self.strides)[1],
+                        exposed,
+                        table,
                         h: m.h[i],
                         t: m.t[i],
                         phi: m.phi[i],
