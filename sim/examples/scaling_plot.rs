@@ -130,6 +130,7 @@ where
         RGBColor(40, 90, 200),
         RGBColor(230, 140, 20),
         RGBColor(30, 150, 80),
+        RGBColor(140, 60, 170),
     ];
     for (k, (name, rows)) in series.iter().enumerate() {
         let c = colours[k % colours.len()];

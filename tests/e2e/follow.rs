@@ -633,18 +633,28 @@ fn the_recording_streams_to_a_rerun_viewer_as_the_run_goes() {
         .unwrap()
         .port();
     let got = dir.join("got.rrd");
-    let mut viewer = Command::new(&rerun)
-        .args(["--bind", "127.0.0.1", "--port", &port.to_string(), "--save"])
-        .arg(&got)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start rerun --save");
+    // The venv's `rerun` is a Python script that starts the server as its child: it runs in a
+    // process group of its own, and the whole group is ended, or the server outlives the test.
+    let mut viewer = std::os::unix::process::CommandExt::process_group(
+        Command::new(&rerun)
+            .args(["--bind", "127.0.0.1", "--port", &port.to_string(), "--save"])
+            .arg(&got)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped()),
+        0,
+    )
+    .spawn()
+    .expect("start rerun --save");
+    let stop = |viewer: &mut std::process::Child| {
+        let group = format!("-{}", viewer.id());
+        let _ = Command::new("kill").args(["-KILL", "--", &group]).status();
+        let _ = viewer.wait();
+    };
     // Wait for it to listen (bounded: 60 s; it takes seconds on a loaded machine).
     let start = Instant::now();
     while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
         if start.elapsed() > Duration::from_secs(60) {
-            let _ = viewer.kill();
+            stop(&mut viewer);
             panic!("rerun --save did not listen on {port} within 60 s");
         }
         std::thread::sleep(Duration::from_millis(100));
@@ -665,8 +675,7 @@ fn the_recording_streams_to_a_rerun_viewer_as_the_run_goes() {
         }
         size = now;
     }
-    let _ = viewer.kill();
-    let _ = viewer.wait();
+    stop(&mut viewer);
     assert!(ok, "{text}");
     assert!(text.contains("alarm"), "{text}");
     let print = |file: &Path| {

@@ -52,6 +52,10 @@ pub struct LocalSteps {
     /// A node steps at most this share of the time since the torch was last near it (its age):
     /// metal just laid cools fast, whatever its distance from the torch.
     pub age_share: f64,
+    /// The largest change of a node's temperature in one step of a level ≥ 1, K, read from the
+    /// rate of its last step (none: no such bound, only distance and age).
+    #[serde(default)]
+    pub change: Option<f64>,
 }
 
 impl LocalSteps {
@@ -70,6 +74,17 @@ impl LocalSteps {
         (1..=self.levels)
             .rev()
             .find(|&m| self.period_of(m) <= self.age_share * age)
+            .unwrap_or(0)
+    }
+
+    /// The coarsest level a node whose temperature moves at `rate` (K/s) may take.
+    pub fn level_of_rate(&self, rate: f64) -> u8 {
+        let Some(change) = self.change else {
+            return self.levels;
+        };
+        (1..=self.levels)
+            .rev()
+            .find(|&m| self.period_of(m) * rate <= change)
             .unwrap_or(0)
     }
 }
@@ -206,6 +221,9 @@ pub(crate) struct Rates {
     pub last: Vec<f64>,
     /// Per node: when the torch was last near it (its level by distance 0), s.
     pub near_at: Vec<f64>,
+    /// Per node: ΔT / period of its last step, K/s (infinite before its first).
+    #[serde(default)]
+    pub rate: Vec<f32>,
     /// Network time, s.
     pub elapsed: f64,
 }
@@ -228,6 +246,7 @@ impl Rates {
             members,
             last: vec![0.0; levels],
             near_at: vec![0.0; active.len()],
+            rate: vec![f32::INFINITY; active.len()],
             elapsed: 0.0,
         }
     }
@@ -236,6 +255,9 @@ impl Rates {
     pub fn join(&mut self, i: usize) {
         self.level[i] = 0;
         self.near_at[i] = self.elapsed;
+        if let Some(r) = self.rate.get_mut(i) {
+            *r = f32::INFINITY;
+        }
         let m = &mut self.members[0];
         if let Err(at) = m.binary_search(&(i as u32)) {
             m.insert(at, i as u32);
@@ -265,14 +287,23 @@ impl Rates {
         pool.sort_unstable();
         let before: Vec<u8> = pool.iter().map(|&i| self.level[i as usize]).collect();
         let s = self.settings;
-        for &i in &pool {
+        for (&i, &was) in pool.iter().zip(&before) {
             let i = i as usize;
             if torch.near(i, s.near) {
                 self.near_at[i] = self.elapsed;
                 self.level[i] = 0;
                 continue;
             }
-            let mut m = s.level_of_age(self.elapsed - self.near_at[i]).min(top);
+            // A checkpoint from before the rates were kept has none: every node asked again.
+            let rate = self
+                .rate
+                .get(i)
+                .map_or(f64::INFINITY, |&r| f64::from(r).abs());
+            let mut m = s
+                .level_of_age(self.elapsed - self.near_at[i])
+                .min(s.level_of_rate(rate))
+                .min(was + 1)
+                .min(top);
             while m > 0 && !torch.clear_of(i, s.reach_of(m), s.period_of(m)) {
                 m -= 1;
             }
@@ -409,6 +440,7 @@ mod tests {
             period: 1.0,
             levels: 5,
             age_share: 0.1,
+            change: None,
         };
         assert_eq!(s.level_of_age(9.9), 0);
         assert_eq!(s.level_of_age(10.0), 1);
@@ -435,11 +467,18 @@ mod tests {
             period: 1.0,
             levels: 4,
             age_share: 0.5,
+            change: None,
         };
         let mut r = Rates::new(s, &[true; 30]);
         r.elapsed = 100.0;
+        r.rate.fill(0.0);
         r.near_at[29] = 99.0; // near a second ago: its age keeps it at level 0
+        // A node rises one level a sort: the first sort takes none above level 1.
         r.sort(4, &Still, |_, _, _, _| true);
+        assert!(r.level.iter().all(|&m| m <= 1));
+        for _ in 0..3 {
+            r.sort(4, &Still, |_, _, _, _| true);
+        }
         // Node 3 is 30 mm off: clear of 20·√2 mm (level 2), not of 40 mm (level 3).
         let want = |i: usize| match i {
             0..=2 => 0, // within `near`
@@ -458,8 +497,45 @@ mod tests {
         // A level not yet due caps the sort.
         let mut r = Rates::new(s, &[true; 30]);
         r.elapsed = 100.0;
-        r.sort(2, &Still, |_, _, _, _| true);
+        r.rate.fill(0.0);
+        for _ in 0..4 {
+            r.sort(2, &Still, |_, _, _, _| true);
+        }
         assert_eq!(r.level[20], 2);
+    }
+
+    #[test]
+    fn a_node_moving_fast_steps_finer() {
+        let s = LocalSteps {
+            near: 0.02,
+            period: 1.0,
+            levels: 6,
+            age_share: 1.0,
+            change: Some(2.0),
+        };
+        // 2 K a step at 0.3 K/s: periods up to 6.7 s, level 3 (4 s); at 3 K/s none.
+        assert_eq!(s.level_of_rate(0.3), 3);
+        assert_eq!(s.level_of_rate(3.0), 0);
+        assert_eq!(s.level_of_rate(0.0), 6);
+        let mut r = Rates::new(s, &[true; 30]);
+        r.elapsed = 1000.0;
+        r.rate.fill(0.0);
+        r.rate[20] = 0.3;
+        r.rate[25] = 3.0;
+        for _ in 0..6 {
+            r.sort(6, &Still, |_, _, _, _| true);
+        }
+        assert_eq!(r.level[20], 3);
+        assert_eq!(r.level[25], 0);
+        assert_eq!(r.level[28], 6);
+        // A node not yet stepped, its rate unknown, stays at level 0.
+        let mut r = Rates::new(s, &[true; 30]);
+        r.elapsed = 1000.0;
+        r.sort(6, &Still, |_, _, _, _| true);
+        assert!(r.level.iter().all(|&m| m == 0));
+        // No bound on the change: distance and age alone.
+        let free = LocalSteps { change: None, ..s };
+        assert_eq!(free.level_of_rate(1e6), 6);
     }
 
     #[test]
@@ -469,6 +545,7 @@ mod tests {
             period: 1.0,
             levels: 3,
             age_share: 0.1,
+            change: None,
         };
         let mut r = Rates::new(s, &[true; 4]);
         r.elapsed = 0.9;

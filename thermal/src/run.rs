@@ -166,6 +166,10 @@ pub enum Cells {
         plate_cells: usize,
         /// Conjugate-gradient iterations over the run.
         cg_iterations: usize,
+        /// Node steps over the run (a node stepped once counts one): the work, whatever the
+        /// rates ([`crate::rates`]).
+        #[serde(default)]
+        node_steps: u64,
     },
     Voxel {
         voxels: usize,

@@ -743,6 +743,7 @@ impl HeatRun for WallRun {
                 wall_nodes: self.model.n_wall,
                 plate_cells: net.len() - self.model.n_wall,
                 cg_iterations: net.iterations,
+                node_steps: net.node_steps,
             },
         }
     }

@@ -75,6 +75,7 @@ fn models(material: Material) -> [HeatModel; 4] {
                 period: 1.0,
                 levels: 5,
                 age_share: 0.1,
+                change: None,
             }),
             ..wall
         }),

@@ -16,6 +16,7 @@ const LOCAL: LocalSteps = LocalSteps {
     period: 1.0,
     levels: 12,
     age_share: 0.025,
+    change: Some(1.0),
 };
 
 fn settings(local_steps: Option<LocalSteps>) -> WallSettings {

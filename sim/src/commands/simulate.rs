@@ -151,13 +151,20 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
             }
         }
     }
-    let (wall_nodes, plate_cells, voxels, cg_iterations) = match r.cells {
+    let (wall_nodes, plate_cells, voxels, cg_iterations, updates) = match r.cells {
         Cells::ThinWall {
             wall_nodes,
             plate_cells,
             cg_iterations,
-        } => (Some(wall_nodes), Some(plate_cells), None, cg_iterations),
-        Cells::Voxel { voxels, .. } => (None, None, Some(voxels), 0),
+            node_steps,
+        } => (
+            Some(wall_nodes),
+            Some(plate_cells),
+            None,
+            cg_iterations,
+            node_steps,
+        ),
+        Cells::Voxel { voxels, updates } => (None, None, Some(voxels), 0, updates),
     };
     let json = json!({
         "model": sim.model,
@@ -178,6 +185,8 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         "voxels": voxels,
         "steps": r.steps,
         "cg_iterations": cg_iterations,
+        // Node steps or voxel updates: the heat model's work, whatever its rates.
+        "cell_updates": updates,
         "underpowered_deposits": r.underpowered,
         "as_built": {
             "hot_height_loss_per_k": params.bead.hot_metal.height_loss_per_k,

@@ -33,6 +33,18 @@ pub const NODE_BYTES: f64 = 2_000.0;
 /// iterations included), measured on this machine's kind (docs/PERFORMANCE.md).
 pub const NODE_NS_PER_STEP: f64 = 200.0;
 
+/// Local time stepping on the thin wall ([`thermal::rates`]): the nodes stepped at every
+/// deposit (within the near zone, or just left it and still cooling fast), per (near zone /
+/// node)²; the steps each other node takes at its own rate, per layer laid over another (each
+/// revolution warms it again); and the time per node step, the levels' sorting included.
+/// Fitted to the closed domes R 100, 200 and 400 (docs/PERFORMANCE.md "Cost estimates"): near
+/// sets of 3 640, 4 250 and 6 070 nodes, 7.4, 7.2 and 6.6 steps a node and layer, 0.6 to 2 µs
+/// a node step (the larger the part, the more conjugate-gradient iterations a step).
+pub const NEAR_SET: f64 = 8.0;
+pub const FAR_STEPS_PER_NODE_LAYER: f64 = 7.0;
+pub const LOCAL_NS_PER_STEP: f64 = 1_000.0;
+const LOCAL_NEAR_M: f64 = super::params::documented::LOCAL_NEAR_MM * 1e-3;
+
 /// The estimate of one run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
@@ -142,6 +154,18 @@ pub fn estimate(
             let plate = (px / cell).ceil() * (py / cell).ceil() * PLATE_LAYERS as f64;
             let nodes = wall + plate;
             let steps = deposits.len() as f64;
+            // Every node at every deposit, or (local steps) the near set at every deposit and
+            // the rest at their own rates.
+            let every = steps * (plate + wall / 2.0);
+            let seconds = match t.local_steps {
+                false => every * NODE_NS_PER_STEP * 1e-9,
+                true => {
+                    let near = NEAR_SET * (LOCAL_NEAR_M / t.node_m).powi(2);
+                    let far = FAR_STEPS_PER_NODE_LAYER * layers(deposits);
+                    let local = steps * near.min(nodes) + nodes * far;
+                    local.min(every) * LOCAL_NS_PER_STEP * 1e-9
+                }
+            };
             Estimate {
                 model: t.model,
                 cells: nodes,
@@ -150,10 +174,20 @@ pub fn estimate(
                 bytes: BASE_BYTES
                     + nodes * NODE_BYTES * copies
                     + frame_bytes(deposits.len(), frames),
-                seconds: steps * (plate + wall / 2.0) * NODE_NS_PER_STEP * 1e-9,
+                seconds,
             }
         }
     }
+}
+
+/// How many layers the path lays over one another: the longest chain of deposits each laid
+/// on the one before (a revolution's, on a spiral).
+fn layers(deposits: &[Deposit]) -> f64 {
+    let mut depth = vec![0u32; deposits.len()];
+    for (i, d) in deposits.iter().enumerate() {
+        depth[i] = d.support.filter(|&s| s < i).map_or(1, |s| depth[s] + 1);
+    }
+    f64::from(depth.iter().copied().max().unwrap_or(0))
 }
 
 /// Length of deposit i's bead segment, m.
@@ -294,5 +328,41 @@ mod tests {
             "{}",
             e.plate_cells
         );
+    }
+
+    /// The thin wall with local steps: the near set at every deposit and a few steps a node
+    /// and layer, below every node at every deposit (a third of it here, as measured at
+    /// R 200); the layers counted down the chain of supports.
+    #[test]
+    fn local_steps_cost_the_near_set_and_each_nodes_own_steps() {
+        let deps = thermal::schedule::helix(0.2, 600, 40, 0.0018, 0.005, 0.01, 2000.0);
+        assert_eq!(layers(&deps), 40.0);
+        let t = ThermalSettings {
+            model: ThermalModel::ThinWall,
+            plate_m: [0.5, 0.5, 0.01],
+            plate_fit: false,
+            ..ThermalSettings::default()
+        };
+        let m = thermal::material::Material::g3si();
+        let local = estimate(&t, &m, &deps, 1e4, 1.0, 0, 1);
+        let every = estimate(
+            &ThermalSettings {
+                local_steps: false,
+                ..t
+            },
+            &m,
+            &deps,
+            1e4,
+            1.0,
+            0,
+            1,
+        );
+        assert_eq!(local.cells, every.cells);
+        let near = NEAR_SET * (LOCAL_NEAR_M / t.node_m).powi(2);
+        let want = (24_000.0 * near + local.cells * FAR_STEPS_PER_NODE_LAYER * 40.0)
+            * LOCAL_NS_PER_STEP
+            * 1e-9;
+        assert!((local.seconds / want - 1.0).abs() < 1e-12, "{local:?}");
+        assert!(local.seconds < 0.5 * every.seconds, "{local:?} {every:?}");
     }
 }

@@ -245,6 +245,7 @@ fn local_steps(t: &ThermalSettings) -> LocalSteps {
         period: d::LOCAL_PERIOD_S,
         levels: d::LOCAL_LEVELS,
         age_share: d::LOCAL_AGE_SHARE,
+        change: Some(d::LOCAL_CHANGE_K),
     }
 }
 

@@ -1345,6 +1345,7 @@ mod tests {
                 period: 1.0,
                 levels: 5,
                 age_share: 0.1,
+                change: None,
             }),
         };
         let mut run = WallRun::new(

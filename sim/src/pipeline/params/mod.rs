@@ -137,11 +137,16 @@ pub mod documented {
     /// within this of the torch (and of the lead and footprint, two nodes beyond) takes every
     /// step; level m steps every 2^(m−1) s, up to 2048 s, where the torch as scheduled comes no
     /// nearer than 50 mm·√2^(m−1) before its next step and the period is at most 2.5 % of the
-    /// time since the torch was last near. 25 mm read the dome R 200 12 % of the rise off.
+    /// time since the torch was last near, and a node moves at most 1 K in one of its steps
+    /// (the rate of its last step times the period). 25 mm read the dome R 200 12 % of the
+    /// rise off; without the bound on the change the dome R 400 read 12 % off at the plate's
+    /// edge of the near zone.
     pub const LOCAL_NEAR_MM: f64 = 50.0;
     pub const LOCAL_PERIOD_S: f64 = 1.0;
     pub const LOCAL_LEVELS: u8 = 12;
     pub const LOCAL_AGE_SHARE: f64 = 0.025;
+    /// A node of level ≥ 1 moves at most this far in one of its steps, K.
+    pub const LOCAL_CHANGE_K: f64 = 1.0;
     /// The process: a G3Si CMT process on a 1 mm wire, its wire feed modulated at a constant
     /// travel speed (the CTPP choice), a fixed arc power, Eq.7's rectangular section.
     pub const WIRE_DIAMETER_MM: f64 = 1.0;
