@@ -280,6 +280,9 @@ impl Rates {
         torch: &impl Torch,
         stable: impl Fn(usize, u8, f64, &[u8]) -> bool,
     ) -> Vec<u32> {
+        // A checkpoint from before the rates were kept has none: each node's is unknown (and
+        // it stays at level 0) until it steps again.
+        self.rate.resize(self.level.len(), f32::INFINITY);
         let mut pool: Vec<u32> = Vec::new();
         for m in 0..=usize::from(top) {
             pool.append(&mut self.members[m]);
@@ -294,11 +297,7 @@ impl Rates {
                 self.level[i] = 0;
                 continue;
             }
-            // A checkpoint from before the rates were kept has none: every node asked again.
-            let rate = self
-                .rate
-                .get(i)
-                .map_or(f64::INFINITY, |&r| f64::from(r).abs());
+            let rate = f64::from(self.rate[i]).abs();
             let mut m = s
                 .level_of_age(self.elapsed - self.near_at[i])
                 .min(s.level_of_rate(rate))
