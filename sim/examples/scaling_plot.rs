@@ -121,6 +121,9 @@ where
         )?;
     chart
         .configure_mesh()
+        // Whole numbers, few of them: a log axis's default labels ran into one another.
+        .x_labels(12)
+        .x_label_formatter(&|v| format!("{v:.0}"))
         .x_desc("deposits (path points)")
         .y_desc(what)
         .label_style((FONT, 14))
