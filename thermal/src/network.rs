@@ -340,7 +340,9 @@ impl Network {
             &self.t,
             &self.material,
         );
-        for i in rates.sort(top, torch, stable) {
+        let start = &self.start;
+        let neighbours = |i: usize| start[i] as usize..start[i + 1] as usize;
+        for i in rates.sort(top, torch, stable, neighbours, &self.column) {
             self.scratch.last_t[i as usize] = self.t[i as usize];
         }
     }

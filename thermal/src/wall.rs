@@ -10,7 +10,7 @@
 use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Network, Surroundings};
-use crate::rates::{LocalSteps, Reach, Torch};
+use crate::rates::{LocalSteps, Reach, Torch, Window};
 use crate::run::{
     Burn, Cells, CoolingSteps, Drops, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult,
     Snapshot, Support, Trace, replay,
@@ -758,13 +758,21 @@ struct TorchOnPath<'a> {
 }
 
 impl Torch for TorchOnPath<'_> {
+    type Ahead = Option<Window>;
+
     fn near(&self, i: usize, d: f64) -> bool {
         dist(self.positions[i], self.position) <= d
     }
 
-    fn clear_of(&self, i: usize, d: f64, horizon: f64) -> bool {
-        self.reach
-            .is_some_and(|r| !r.comes_within(self.positions[i], d, self.at, horizon))
+    fn ahead(&self, horizon: f64) -> Option<Window> {
+        self.reach.map(|r| r.window(self.at, horizon))
+    }
+
+    fn clear_of(&self, i: usize, d: f64, ahead: &Option<Window>) -> bool {
+        match (self.reach, ahead) {
+            (Some(r), Some(w)) => !r.window_within(self.positions[i], d, w),
+            _ => false,
+        }
     }
 }
 
