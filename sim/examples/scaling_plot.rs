@@ -116,7 +116,7 @@ where
         .x_label_area_size(44)
         .y_label_area_size(64)
         .build_cartesian_2d(
-            (x0 / 1.5..x1 * 1.5).log_scale(),
+            (x0 / 1.5..x1 * 1.2).log_scale(),
             (y0 / 1.5..y1 * 1.5).log_scale(),
         )?;
     chart

@@ -321,8 +321,9 @@ impl Rates {
     }
 
     /// Sort the nodes of levels 0..=top (all stepped to `elapsed`) again by where the torch is
-    /// and will be, and by their age, none coarser than `top`. Returns the nodes that changed
-    /// level.
+    /// and will be, and by their age, none coarser than `top`, and none coarser than `stable`
+    /// allows (node, level, period, every node's level); node i's neighbours are
+    /// `column[neighbours(i)]`. Returns the nodes that changed level.
     pub fn sort(
         &mut self,
         top: u8,
@@ -555,15 +556,18 @@ mod tests {
         }
     }
 
+    /// Four levels, a 20 mm near zone, half the age.
+    const FOUR_LEVELS: LocalSteps = LocalSteps {
+        near: 0.02,
+        period: 1.0,
+        levels: 4,
+        age_share: 0.5,
+        change: None,
+    };
+
     #[test]
     fn a_node_takes_the_coarsest_level_its_age_and_the_torch_allow() {
-        let s = LocalSteps {
-            near: 0.02,
-            period: 1.0,
-            levels: 4,
-            age_share: 0.5,
-            change: None,
-        };
+        let s = FOUR_LEVELS;
         let mut r = Rates::new(s, &[true; 30]);
         r.elapsed = 100.0;
         r.rate.fill(0.0);
@@ -590,13 +594,19 @@ mod tests {
         all.sort_unstable();
         assert_eq!(all, (0..30).collect::<Vec<u32>>());
         // A level not yet due caps the sort.
+        assert_eq!(settled(s, 2).level[20], 2);
+    }
+
+    /// 30 nodes 100 s into a run, none moving, sorted four times up to level `top` with no
+    /// stability limit.
+    fn settled(s: LocalSteps, top: u8) -> Rates {
         let mut r = Rates::new(s, &[true; 30]);
         r.elapsed = 100.0;
         r.rate.fill(0.0);
         for _ in 0..4 {
-            r.sort(2, &Still, |_, _, _, _| true, |_| 0..0, &[]);
+            r.sort(top, &Still, |_, _, _, _| true, |_| 0..0, &[]);
         }
-        assert_eq!(r.level[20], 2);
+        r
     }
 
     #[test]
@@ -639,20 +649,9 @@ mod tests {
     /// (seen on the dome R 100 at levels 2 and 3); the sort lowers all of them.
     #[test]
     fn a_chain_of_nodes_too_coarse_for_their_neighbours_all_step_finer() {
-        let s = LocalSteps {
-            near: 0.02,
-            period: 1.0,
-            levels: 4,
-            age_share: 0.5,
-            change: None,
-        };
+        let s = FOUR_LEVELS;
         let n = 30;
-        let mut r = Rates::new(s, &[true; 30]);
-        r.elapsed = 100.0;
-        r.rate.fill(0.0);
-        for _ in 0..4 {
-            r.sort(4, &Still, |_, _, _, _| true, |_| 0..0, &[]);
-        }
+        let mut r = settled(s, 4);
         assert_eq!(r.level[20], 4);
         // A chain: node i's neighbours i − 1 and i + 1.
         let column: Vec<u32> = (0..n as u32)
