@@ -110,6 +110,17 @@ fn a_killed_study_resumes_and_shards_merge_into_the_same_summary() {
     );
 }
 
+/// Stops the single-node Slurm when dropped.
+struct Stop;
+
+impl Drop for Stop {
+    fn drop(&mut self) {
+        let _ = Command::new("bash")
+            .arg(root().join("tests/slurm/stop.sh"))
+            .status();
+    }
+}
+
 /// A real single-node Slurm (tests/slurm/start.sh installs and starts the distribution's
 /// slurm-wlm on loopback, as root) runs a small study as a job array; the merge job's summary
 /// equals a local run's. Opt-in (`crate::SYSTEM_TESTS`): it changes the system.
@@ -140,6 +151,8 @@ fn slurm_runs_a_study_as_a_job_array() {
             .success()
     );
 
+    // Slurm's daemons end with the test, passed or not (tests/slurm/stop.sh).
+    let _slurm = Stop;
     let start = Command::new("bash")
         .arg(root().join("tests/slurm/start.sh"))
         .output()

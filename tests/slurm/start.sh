@@ -26,12 +26,15 @@ if [ ! -s /etc/munge/munge.key ]; then
 fi
 mkdir -p /run/munge /var/log/munge /var/lib/munge
 chown munge:munge /run/munge /var/log/munge /var/lib/munge 2>/dev/null || true
+# What this script starts it marks ($dir/*.ours), so that tests/slurm/stop.sh ends that and
+# nothing else.
 if ! munge -n >/dev/null 2>&1; then
     if id munge >/dev/null 2>&1; then
         su -s /bin/sh munge -c munged 2>/dev/null || munged --force
     else
         munged --force
     fi
+    touch "$dir/munged.ours"
 fi
 
 host=$(hostname -s)
@@ -64,8 +67,8 @@ EOF
 export SLURM_CONF="$conf"
 
 running() { [ -f "$1" ] && kill -0 "$(cat "$1")" 2>/dev/null; }
-running "$dir/slurmctld.pid" || slurmctld -f "$conf"
-running "$dir/slurmd.pid" || slurmd -f "$conf"
+running "$dir/slurmctld.pid" || { slurmctld -f "$conf" && touch "$dir/slurmctld.ours"; }
+running "$dir/slurmd.pid" || { slurmd -f "$conf" && touch "$dir/slurmd.ours"; }
 
 for _ in $(seq 1 60); do
     state=$(sinfo -h -N -o %t 2>/dev/null | head -1 || true)
