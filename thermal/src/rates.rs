@@ -345,9 +345,8 @@ impl Rates {
         }
         let before: Vec<u8> = pool.iter().map(|&i| self.level[i as usize]).collect();
         let s = self.settings;
-        let ahead: Vec<_> = (0..=top)
-            .map(|m| torch.ahead(if m == 0 { 0.0 } else { s.period_of(m) }))
-            .collect();
+        // Where the torch goes over each level's period, levels 1..=top.
+        let ahead: Vec<_> = (1..=top).map(|m| torch.ahead(s.period_of(m))).collect();
         for (&i, &was) in pool.iter().zip(&before) {
             let i = i as usize;
             if torch.near(i, s.near) {
@@ -361,7 +360,7 @@ impl Rates {
                 .min(s.level_of_rate(rate))
                 .min(was + 1)
                 .min(top);
-            while m > 0 && !torch.clear_of(i, s.reach_of(m), &ahead[usize::from(m)]) {
+            while m > 0 && !torch.clear_of(i, s.reach_of(m), &ahead[usize::from(m) - 1]) {
                 m -= 1;
             }
             self.level[i] = m;
