@@ -172,3 +172,130 @@ fn a_plate_steps_on_the_fast_path_as_on_the_cpu() {
     );
     assert!(worst < 1e-3, "{worst} K");
 }
+
+/// Member k of a small ensemble: its arc's heat times `scale`, its losses (convection W/m²K,
+/// emissivity, table W/m²K); halfway through it takes other losses, and member 1 has a
+/// temperature put on its plate (what a data assimilation does between calls).
+const MEMBERS: [(f64, [f64; 3]); 3] = [
+    (1.0, [15.0, 0.6, 100.0]),
+    (0.8, [40.0, 0.3, 300.0]),
+    (1.15, [5.0, 0.9, 0.0]),
+];
+
+fn member(k: usize) -> (Vec<Deposit>, thermal::voxel::VoxelRun) {
+    let (deps, mut s) = build(Device::Gpu);
+    let [c, e, t] = MEMBERS[k].1;
+    s.surroundings.convection_w_m2k = c;
+    s.surroundings.emissivity = e;
+    s.surroundings.table_w_m2k = t;
+    let model = thermal::voxel::VoxelModel::new(&deps, &s).unwrap();
+    (
+        deps.clone(),
+        thermal::voxel::VoxelRun::new(model, &deps).unwrap(),
+    )
+}
+
+/// Member k's program through deposit `last` (exclusive), then 30 s of cooling.
+fn program(
+    k: usize,
+    deps: &[Deposit],
+    run: &mut thermal::voxel::VoxelRun,
+    last: usize,
+) -> Result<(), ThermalError> {
+    for (i, d) in deps.iter().enumerate().take(last) {
+        if i == 72 {
+            let [c, e, t] = MEMBERS[(k + 1) % 3].1;
+            run.set_losses(c, e, t);
+            if k == 1 {
+                run.model_mut().set_temperature(3, 900.0);
+            }
+        }
+        let dwell = if i == 48 { 20.0 } else { 0.0 };
+        let burn = thermal::run::Burn {
+            heat: d.heat * MEMBERS[k].0,
+            ..thermal::run::Burn::of(d)
+        };
+        run.deposit_burning(i, dwell, Some(burn))?;
+    }
+    run.cool(30.0)
+}
+
+/// The members run as one batch, each on a thread of its own; per member its run's result.
+fn batched(lasts: [usize; 3]) -> Vec<Result<RunResult, ThermalError>> {
+    let mut runs: Vec<(Vec<Deposit>, thermal::voxel::VoxelRun)> = (0..3).map(member).collect();
+    let mut models: Vec<&mut thermal::voxel::VoxelModel> =
+        runs.iter_mut().map(|(_, r)| r.model_mut()).collect();
+    let seats = thermal::voxel::share_device(&mut models).expect("a batch on the device");
+    std::thread::scope(|s| {
+        let handles: Vec<_> = runs
+            .into_iter()
+            .zip(seats)
+            .enumerate()
+            .map(|(k, ((deps, mut run), seat))| {
+                s.spawn(move || {
+                    let _seat = seat;
+                    program(k, &deps, &mut run, lasts[k]).map(|()| run.finish())
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    })
+}
+
+/// Three members stepped as one batch on the device (one dispatch for all, their losses and
+/// their arc's heat apart, the losses changed and a temperature put midway) give what each
+/// gives run alone on it, to the bit: a member's state, heat, losses, peaks or sums read at
+/// another's place would not.
+#[test]
+#[cfg_attr(
+    not(system_tests),
+    ignore = "opt-in, WAAMTWIN_SYSTEM_TESTS=1: a GPU adapter (CI: Mesa's lavapipe)"
+)]
+fn an_ensemble_steps_as_one_batch_as_each_member_alone() {
+    let all = 144;
+    let alone: Vec<RunResult> = (0..3)
+        .map(|k| {
+            let (deps, mut run) = member(k);
+            program(k, &deps, &mut run, all).unwrap();
+            run.finish()
+        })
+        .collect();
+    let together = batched([all; 3]);
+    for (k, (a, b)) in alone.iter().zip(together).enumerate() {
+        let b = b.unwrap();
+        let bits = |r: &RunResult| -> Vec<u64> {
+            r.points
+                .iter()
+                .flat_map(|p| [p.preheat, p.peak, p.time_above])
+                .chain([r.ledger.lost(), r.stored])
+                .chain(r.hottest.temperature.iter().copied())
+                .map(f64::to_bits)
+                .collect()
+        };
+        assert_eq!(bits(a), bits(&b), "member {k}");
+        assert_eq!(a.steps, b.steps);
+    }
+    // The members differ: a batch that stepped one member's field for all would pass the
+    // comparison above only if they did not.
+    assert!((alone[0].stored - alone[1].stored).abs() > 1e-3 * alone[0].stored);
+}
+
+/// A member whose program stops early leaves the others' next read failing with a message that
+/// names the batch, not waiting for ever.
+#[test]
+#[cfg_attr(
+    not(system_tests),
+    ignore = "opt-in, WAAMTWIN_SYSTEM_TESTS=1: a GPU adapter (CI: Mesa's lavapipe)"
+)]
+fn a_member_out_of_step_fails_the_batch_rather_than_hangs_it() {
+    let results = batched([144, 144, 30]);
+    for r in &results[..2] {
+        match r {
+            Err(ThermalError::DeviceLost { reason, .. }) => {
+                assert!(reason.contains("batch"), "{reason}")
+            }
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("a member ran on alone"),
+        }
+    }
+}

@@ -6,6 +6,11 @@
 // h; the deposit–plate interface's series correction, measured on the state as the step
 // starts), `step` (the stencil), `bond` (the correction applied), `observe`. `scatter`
 // writes voxels the host changed before a batch of steps.
+//
+// A field holds one or more members (a `follow` ensemble: one dispatch steps them all, the
+// workgroup's z is the member). They share the geometry (the neighbour table, the areas, the
+// interface pairs, the deposits' voxels); each has its own state (h, T, Φ at m·cap + v), its
+// arc's heat, its losses, its peaks and its sums.
 
 struct Params {
     n: u32,            // active voxels
@@ -20,9 +25,6 @@ struct Params {
     dx: f32,
     ta: f32,
     ta4: f32,
-    h_conv: f32,
-    eps_sigma: f32,
-    h_table: f32,
     threshold: f32,
     cap_d: f32,        // dt / (ρ·dx³), deposit
     cap_p: f32,        // the plate's
@@ -38,13 +40,17 @@ struct Params {
     nx: u32,           // workgroups along x: a dispatch wider than the device's limit wraps to y
     sy: u32,           // a regular voxel's neighbours across y and z: v ± sy, v ± sz
     sz: u32,
+    src_cap: u32,      // per member: the stride of its sources, pairs' corrections, deposits
+    pair_cap: u32,
+    dep_cap: u32,
+    acc_stride: u32,   // per member: workgroups of loss sums
     pad0: u32,
-    pad1: u32,
 };
 
 // A voxel the host wrote: its neighbours, exposed and table areas, and state.
 struct Record {
     v: u32,
+    m: u32,            // the member whose state it is (the geometry is everyone's)
     nb: array<u32, 6>,
     exposed: f32,
     table: f32,
@@ -53,7 +59,7 @@ struct Record {
     phi: f32,
 };
 
-// The arc's heat into one voxel, W.
+// The arc's heat into one voxel, W; v = NONE pads a member's list to the longest.
 struct Source {
     v: u32,
     w: f32,
@@ -81,8 +87,11 @@ struct Source {
 @group(0) @binding(16) var<storage, read_write> above: array<f32>;   // time above, since the last read
 @group(0) @binding(17) var<storage, read_write> hot: array<atomic<u32>>; // per step slot
 @group(0) @binding(18) var<storage, read> records: array<Record>;
+@group(0) @binding(19) var<storage, read> losses: array<vec4<f32>>;  // per member: h_conv, εσ, h_table
 
 const WG: u32 = 256u;
+const SLOTS: u32 = 256u;
+const NONE: u32 = 0xffffffffu;
 
 fn index(wg: vec3<u32>, local: u32) -> u32 {
     return (wg.x + wg.y * p.nx) * WG + local;
@@ -131,10 +140,11 @@ fn scatter(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
         nb[f * p.cap + rec.v] = rec.nb[f];
     }
     area[rec.v] = vec2<f32>(rec.exposed, rec.table); // the host marks a regular voxel
-    h[rec.v] = rec.h;
-    t[rec.v] = rec.t;
-    phi_in[rec.v] = rec.phi;
-    phi_out[rec.v] = rec.phi;
+    let v = rec.m * p.cap + rec.v;
+    h[v] = rec.h;
+    t[v] = rec.t;
+    phi_in[v] = rec.phi;
+    phi_out[v] = rec.phi;
 }
 
 // The arc's heat into h (the listed voxels are distinct), and each interface pair's correction
@@ -143,22 +153,25 @@ fn scatter(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
 @compute @workgroup_size(256)
 fn prologue(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l: u32) {
     let s = index(wg, l);
+    let o = wg.z * p.cap;
     if s < p.n_sources {
-        let src = sources[s];
-        var c = p.cap_d;
-        if src.v < p.plate_end {
-            c = p.cap_p;
+        let src = sources[wg.z * p.src_cap + s];
+        if src.v != NONE {
+            var c = p.cap_d;
+            if src.v < p.plate_end {
+                c = p.cap_p;
+            }
+            h[o + src.v] = h[o + src.v] + c * src.w;
         }
-        h[src.v] = h[src.v] + c * src.w;
     }
     if s < p.n_pairs {
-        let ij = pairs[s];
+        let ij = pairs[s] + vec2<u32>(o);
         let ti = t[ij.x];
         let tj = t[ij.y];
         let kp = k_of(ti, true);
         let kd = k_of(tj, false);
         let series = 2.0 * kp * kd / (kp + kd);
-        delta[s] = p.dx * series * (tj - ti) - p.dx * (phi_in[ij.y] - phi_in[ij.x]);
+        delta[wg.z * p.pair_cap + s] = p.dx * series * (tj - ti) - p.dx * (phi_in[ij.y] - phi_in[ij.x]);
     }
 }
 
@@ -166,11 +179,13 @@ var<workgroup> red: array<vec3<f32>, 256>;
 
 @compute @workgroup_size(256)
 fn step(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l: u32) {
-    let v = index(wg, l);
+    let i = index(wg, l);
+    let o = wg.z * p.cap;
+    let v = o + i;
     var sums = vec3<f32>(0.0);
-    if v < p.n {
-        let ab = area[v];
-        let plate = v < p.plate_end;
+    if i < p.n {
+        let ab = area[i];
+        let plate = i < p.plate_end;
         var cap = p.cap_d;
         if plate {
             cap = p.cap_p;
@@ -182,14 +197,15 @@ fn step(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
             flux = p.dx * (ring - 6.0 * phi_in[v]);
         } else {
             let c = p.cap;
-            let ring = phi_in[nb[v]] + phi_in[nb[c + v]] + phi_in[nb[2u * c + v]]
-                + phi_in[nb[3u * c + v]] + phi_in[nb[4u * c + v]] + phi_in[nb[5u * c + v]];
+            let ring = phi_in[o + nb[i]] + phi_in[o + nb[c + i]] + phi_in[o + nb[2u * c + i]]
+                + phi_in[o + nb[3u * c + i]] + phi_in[o + nb[4u * c + i]] + phi_in[o + nb[5u * c + i]];
             let lap = ring - 6.0 * phi_in[v];
             let ti = t[v];
             let d = ti - p.ta;
             let t2 = ti * ti;
             let rad = t2 * t2 - p.ta4;
-            flux = p.dx * lap - (p.h_conv * ab.x + p.h_table * ab.y) * d - p.eps_sigma * ab.x * rad;
+            let k = losses[wg.z];
+            flux = p.dx * lap - (k.x * ab.x + k.z * ab.y) * d - k.y * ab.x * rad;
             sums = vec3<f32>(ab.x * d, ab.x * rad, ab.y * d);
         }
         let hv = h[v] + cap * flux;
@@ -208,7 +224,7 @@ fn step(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     }
     if l == 0u {
         // Kahan's compensated sum over the steps of a batch, times dt: the ledger's 1e-5.
-        let g = (wg.x + wg.y * p.nx) * 6u;
+        let g = (wg.z * p.acc_stride + wg.x + wg.y * p.nx) * 6u;
         let x = red[0] * p.dt;
         for (var k = 0u; k < 3u; k++) {
             let y = x[k] - acc[g + 3u + k];
@@ -225,9 +241,10 @@ fn bond(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     if s >= p.n_pairs {
         return;
     }
-    let ij = pairs[s];
-    let hi = h[ij.x] + p.cap_p * delta[s];
-    let hj = h[ij.y] - p.cap_d * delta[s];
+    let ij = pairs[s] + vec2<u32>(wg.z * p.cap);
+    let d = delta[wg.z * p.pair_cap + s];
+    let hi = h[ij.x] + p.cap_p * d;
+    let hj = h[ij.y] - p.cap_d * d;
     h[ij.x] = hi;
     h[ij.y] = hj;
     let a = lookup(hi, true);
@@ -252,14 +269,16 @@ fn observe(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
     if hi == lo {
         return;
     }
+    let o = wg.z * p.cap;
     var s = 0.0;
     for (var k = lo; k < hi; k++) {
-        s += t[dep_vox[k]];
+        s += t[o + dep_vox[k]];
     }
     let m = s / f32(hi - lo);
-    peak[i] = max(peak[i], m);
+    let j = wg.z * p.dep_cap + i;
+    peak[j] = max(peak[j], m);
     if m > p.threshold {
-        above[i] = above[i] + p.dt;
+        above[j] = above[j] + p.dt;
     }
-    atomicMax(&hot[p.hot_slot], bitcast<u32>(m));
+    atomicMax(&hot[wg.z * SLOTS + p.hot_slot], bitcast<u32>(m));
 }

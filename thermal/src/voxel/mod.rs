@@ -204,7 +204,7 @@ pub struct VoxelModel {
     /// make their own from the host's copy.
     #[cfg(feature = "gpu")]
     #[serde(skip)]
-    field: gpu::Resident,
+    field: gpu::Lane,
 }
 
 /// A plate of another material than the deposit: its tables, and the faces where the two meet.
@@ -240,6 +240,31 @@ fn spans(r: std::ops::Range<usize>, bounds: [usize; 2]) -> Vec<(std::ops::Range<
         start = end;
     }
     out
+}
+
+/// A member's place in a batch on the device ([`share_device`]), held by the thread that runs
+/// it.
+#[cfg(feature = "gpu")]
+pub use gpu::Seat;
+#[cfg(not(feature = "gpu"))]
+pub struct Seat(());
+
+/// Put `models` on the GPU as one batch, where they step there (`device = Gpu`): one dispatch
+/// steps them all, and each must then run on a thread of its own holding its seat, through
+/// the same calls as the others (runs of one program on one grid that differ in their state,
+/// their arc's heat and their losses: the members of an ensemble). None where they run
+/// otherwise (the CPU, a build without the `gpu` feature, fewer than two, no adapter: a run
+/// that needs one says so at its first call).
+pub fn share_device(models: &mut [&mut VoxelModel]) -> Option<Vec<Seat>> {
+    if models.len() < 2 || models.iter().any(|m| m.settings.device != Device::Gpu) {
+        return None;
+    }
+    #[cfg(feature = "gpu")]
+    {
+        gpu::share(models).ok()
+    }
+    #[cfg(not(feature = "gpu"))]
+    None
 }
 
 /// Whether the voxel model can step on the device `s` asks for: a GPU needs the `gpu` feature,
@@ -922,9 +947,8 @@ impl VoxelModel {
     /// Every voxel to be written to the device again: the device's copy is dropped.
     fn all_dirty(&mut self) {
         #[cfg(feature = "gpu")]
-        {
-            self.field = Default::default();
-        }
+        self.gpu_all_dirty();
+        #[cfg(not(feature = "gpu"))]
         self.dirty.clear();
     }
 
