@@ -495,6 +495,73 @@ macro_rules! either {
     };
 }
 
+/// Run `work` on every run (with its index), the results in the runs' order. Where they are
+/// voxel runs on a GPU they step there as one batch ([`crate::voxel::share_device`]), each on
+/// a thread of its own; they must then make the same calls: runs of one program on one grid
+/// that differ in their state, their arc's heat and their losses (an ensemble's members).
+/// Else they run on rayon's threads. Of several errors, the one met first: a member's own,
+/// not the batch's failure that it caused in the others.
+pub fn together<T: Send, E: Send>(
+    mut runs: Vec<&mut ModelRun>,
+    work: impl Fn(usize, &mut ModelRun) -> Result<T, E> + Sync,
+) -> Result<Vec<T>, E> {
+    use rayon::prelude::*;
+    let n = runs.len();
+    let mut models: Vec<&mut VoxelModel> = runs
+        .iter_mut()
+        .filter_map(|r| match r {
+            ModelRun::Voxel(v) => Some(v.model_mut()),
+            ModelRun::ThinWall(_) => None,
+        })
+        .collect();
+    let seats = match models.len() == n {
+        true => crate::voxel::share_device(&mut models),
+        false => None,
+    };
+    drop(models);
+    let Some(seats) = seats else {
+        return runs
+            .into_par_iter()
+            .enumerate()
+            .map(|(k, r)| work(k, r))
+            .collect();
+    };
+    let order = std::sync::atomic::AtomicUsize::new(0);
+    let outcomes: Vec<Result<T, (usize, E)>> = std::thread::scope(|s| {
+        let handles: Vec<_> = runs
+            .into_iter()
+            .zip(seats)
+            .enumerate()
+            .map(|(k, (run, seat))| {
+                let (work, order) = (&work, &order);
+                s.spawn(move || {
+                    let out = work(k, run).map_err(|e| (order.fetch_add(1, Ordering::SeqCst), e));
+                    // The seat goes after the error is counted: the others fail after it.
+                    drop(seat);
+                    out
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    });
+    let mut first: Option<(usize, E)> = None;
+    let mut out = Vec::with_capacity(outcomes.len());
+    for o in outcomes {
+        match o {
+            Ok(t) => out.push(t),
+            Err((at, e)) if first.as_ref().is_none_or(|f| at < f.0) => first = Some((at, e)),
+            Err(_) => {}
+        }
+    }
+    match first {
+        Some((_, e)) => Err(e),
+        None => Ok(out),
+    }
+}
+
 impl HeatRun for ModelRun {
     fn deposit_burning(
         &mut self,

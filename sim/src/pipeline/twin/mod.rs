@@ -309,10 +309,20 @@ impl<'a> Twin<'a> {
     /// Run the members and the open loop on to `t_s` (the schedule's deposits up to then).
     pub fn advance(&mut self, t_s: f64) -> Result<(), Error> {
         let (deps, scale) = (&self.deps, self.heat_scale());
-        self.state.members.par_iter_mut().try_for_each(|m| {
-            replay::advance_scaled(&mut m.run, deps, t_s, scale(&m.values), &mut |_| {})
+        let state = &mut self.state;
+        // The open loop last, at the schedule's own heat: one program with the members, so
+        // one batch on a GPU.
+        let scales: Vec<f64> = state.members.iter().map(|m| scale(&m.values)).collect();
+        let runs = state
+            .members
+            .iter_mut()
+            .map(|m| &mut m.run)
+            .chain([&mut state.open_loop])
+            .collect();
+        thermal::run::together(runs, |k, run| {
+            let s = scales.get(k).copied().unwrap_or(1.0);
+            replay::advance_scaled(run, deps, t_s, s, &mut |_| {})
         })?;
-        replay::advance(&mut self.state.open_loop, deps, t_s)?;
         Ok(())
     }
 
@@ -455,18 +465,16 @@ impl<'a> Twin<'a> {
             .map(|m| (m.run.clone(), scale(&m.values)))
             .chain([(self.state.open_loop.clone(), 1.0)])
             .collect();
-        let per_run = runs
-            .into_par_iter()
-            .map(|(mut run, scale)| {
-                targets
-                    .iter()
-                    .map(|&t| {
-                        replay::advance_scaled(&mut run, deps, t, scale, &mut |_| {})?;
-                        Ok(read(&run))
-                    })
-                    .collect::<Result<Vec<T>, Error>>()
-            })
-            .collect::<Result<Vec<Vec<T>>, Error>>()?;
+        let (mut runs, scales): (Vec<ModelRun>, Vec<f64>) = runs.into_iter().unzip();
+        let per_run = thermal::run::together(runs.iter_mut().collect(), |k, run| {
+            targets
+                .iter()
+                .map(|&t| {
+                    replay::advance_scaled(run, deps, t, scales[k], &mut |_| {})?;
+                    Ok(read(run))
+                })
+                .collect::<Result<Vec<T>, Error>>()
+        })?;
         let mut per_run: Vec<std::vec::IntoIter<T>> =
             per_run.into_iter().map(|v| v.into_iter()).collect();
         let open = per_run.pop().expect("the open loop's run");
@@ -494,19 +502,17 @@ impl<'a> Twin<'a> {
         read: &(dyn Fn(&ModelRun) -> f64 + Sync),
     ) -> Result<Vec<f64>, Error> {
         let (deps, scale) = (&self.deps, self.heat_scale());
-        self.state
-            .members
-            .par_iter()
-            .map(|m| {
-                let (mut run, s) = (m.run.clone(), scale(&m.values));
-                replay::advance_scaled(&mut run, deps, start_s, s, &mut |_| {})?;
-                if dwell_s > 0.0 {
-                    run.cool(dwell_s)?;
-                }
-                replay::advance_scaled(&mut run, deps, end_s + dwell_s, s, &mut |_| {})?;
-                Ok(read(&run))
-            })
-            .collect()
+        let members = &self.state.members;
+        let mut runs: Vec<ModelRun> = members.iter().map(|m| m.run.clone()).collect();
+        thermal::run::together(runs.iter_mut().collect(), |k, run| {
+            let s = scale(&members[k].values);
+            replay::advance_scaled(run, deps, start_s, s, &mut |_| {})?;
+            if dwell_s > 0.0 {
+                run.cool(dwell_s)?;
+            }
+            replay::advance_scaled(run, deps, end_s + dwell_s, s, &mut |_| {})?;
+            Ok(read(run))
+        })
     }
 
     /// The members cooled from `from_s` with the arc off, `step_s` at a time up to `max_s`,
@@ -521,16 +527,12 @@ impl<'a> Twin<'a> {
         max_s: f64,
     ) -> Result<Option<f64>, Error> {
         let (deps, scale) = (&self.deps, self.heat_scale());
-        let mut runs: Vec<ModelRun> = self
-            .state
-            .members
-            .par_iter()
-            .map(|m| {
-                let mut run = m.run.clone();
-                replay::advance_scaled(&mut run, deps, from_s, scale(&m.values), &mut |_| {})?;
-                Ok(run)
-            })
-            .collect::<Result<Vec<ModelRun>, Error>>()?;
+        let members = &self.state.members;
+        let mut runs: Vec<ModelRun> = members.iter().map(|m| m.run.clone()).collect();
+        thermal::run::together(runs.iter_mut().collect(), |k, run| {
+            let s = scale(&members[k].values);
+            replay::advance_scaled(run, deps, from_s, s, &mut |_| {})
+        })?;
         let mut waited = 0.0;
         loop {
             let values: Vec<f64> = runs.iter().map(read).collect();
@@ -540,7 +542,7 @@ impl<'a> Twin<'a> {
             if waited >= max_s {
                 return Ok(None);
             }
-            runs.par_iter_mut().try_for_each(|r| r.cool(step_s))?;
+            thermal::run::together(runs.iter_mut().collect(), |_, r| r.cool(step_s))?;
             waited += step_s;
         }
     }

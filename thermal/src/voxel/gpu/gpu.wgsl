@@ -20,7 +20,7 @@ struct Params {
     n_deps: u32,       // deposits laid: observed
     hot_slot: u32,     // this step's slot for the hottest laid metal
     n_records: u32,    // voxels to scatter
-    cap: u32,          // capacity: the stride between faces in `nb`
+    cap: u32,          // capacity: the stride between faces in `nb` and between members' states
     dt: f32,
     dx: f32,
     ta: f32,
