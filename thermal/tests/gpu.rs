@@ -252,7 +252,8 @@ fn batched(lasts: [usize; 3]) -> Vec<Result<RunResult, ThermalError>> {
     ignore = "opt-in, WAAMTWIN_SYSTEM_TESTS=1: a GPU adapter (CI: Mesa's lavapipe)"
 )]
 fn an_ensemble_steps_as_one_batch_as_each_member_alone() {
-    let all = 144;
+    // Two revolutions: the dwell at 48 and the losses changed at 72 both inside.
+    let all = 96;
     let alone: Vec<RunResult> = (0..3)
         .map(|k| {
             let (deps, mut run) = member(k);
@@ -288,7 +289,7 @@ fn an_ensemble_steps_as_one_batch_as_each_member_alone() {
     ignore = "opt-in, WAAMTWIN_SYSTEM_TESTS=1: a GPU adapter (CI: Mesa's lavapipe)"
 )]
 fn a_member_out_of_step_fails_the_batch_rather_than_hangs_it() {
-    let results = batched([144, 144, 30]);
+    let results = batched([96, 96, 30]);
     for r in &results[..2] {
         match r {
             Err(ThermalError::DeviceLost { reason, .. }) => {

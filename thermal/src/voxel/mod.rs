@@ -944,7 +944,8 @@ impl VoxelModel {
         [cc, cp, c]
     }
 
-    /// Every voxel to be written to the device again: the device's copy is dropped.
+    /// Every voxel to be written to the device again (a lone run's copy dropped, a batch's
+    /// member sending all of its voxels: `gpu_all_dirty`).
     fn all_dirty(&mut self) {
         #[cfg(feature = "gpu")]
         self.gpu_all_dirty();

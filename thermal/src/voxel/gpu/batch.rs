@@ -15,19 +15,22 @@ use std::sync::{Arc, Condvar, Mutex};
 pub(super) struct Batch {
     pub(super) gpu: Arc<Gpu>,
     pub(super) members: usize,
-    pub(super) turn: Mutex<Turn>,
-    pub(super) done: Condvar,
+    turn: Mutex<Turn>,
+    /// Signalled when a batch has run, or failed.
+    done: Condvar,
 }
 
-pub(super) struct Turn {
-    pub(super) field: Option<Field>,
-    pub(super) rounds: Vec<Option<Round>>,
-    pub(super) replies: Vec<Option<Reply>>,
+/// The batch's state, under its lock: the field, this round's rounds and replies.
+struct Turn {
+    field: Option<Field>,
+    rounds: Vec<Option<Round>>,
+    replies: Vec<Option<Reply>>,
     /// Members whose run stopped since the batch was last begun.
-    pub(super) left: Vec<bool>,
+    left: Vec<bool>,
     /// Why the batch failed: every member's run fails with it.
-    pub(super) failed: Option<String>,
-    pub(super) generation: u64,
+    failed: Option<String>,
+    /// Batches run so far: a waiting member wakes when it moves.
+    generation: u64,
 }
 
 impl Batch {
@@ -47,7 +50,7 @@ impl Batch {
         }
     }
 
-    pub(super) fn lock(&self) -> std::sync::MutexGuard<'_, Turn> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Turn> {
         // A member that panicked holding the lock leaves the batch failed, not the others
         // panicking in turn.
         self.turn.lock().unwrap_or_else(|e| e.into_inner())
@@ -56,6 +59,11 @@ impl Batch {
     /// Every member back at the start: the next rounds may begin.
     pub(super) fn begin(&self) {
         self.lock().left.iter_mut().for_each(|l| *l = false);
+    }
+
+    /// Of the voxels on the device when the field was made, those stepped on the fast path.
+    pub(super) fn regular(&self) -> Option<usize> {
+        self.lock().field.as_ref().map(|f| f.regular)
     }
 
     /// Whether the field has room for `m`.
@@ -100,7 +108,7 @@ impl Batch {
     }
 
     /// The field made again where every round asks it, then the rounds run.
-    pub(super) fn run(
+    fn run(
         &self,
         field: &mut Option<Field>,
         mut rounds: Vec<Round>,
@@ -129,14 +137,15 @@ impl Batch {
         f.run(&rounds, deliver)
     }
 
-    pub(super) fn fail(&self, turn: &mut Turn, e: String) -> String {
+    /// The batch failed with `e` (or the failure before it): every member's run fails with it.
+    fn fail(&self, turn: &mut Turn, e: String) -> String {
         let e = turn.failed.get_or_insert(e).clone();
         self.done.notify_all();
         e
     }
 
     /// Member k's run stopped: a round the others began cannot be run.
-    pub(super) fn leave(&self, k: usize) {
+    fn leave(&self, k: usize) {
         let mut turn = self.lock();
         turn.left[k] = true;
         if turn.rounds.iter().any(Option::is_some) {
@@ -149,8 +158,8 @@ impl Batch {
 /// A member's place in a batch, held by the thread that runs it: when it is dropped (the run
 /// done, failed or panicked) a round the others began fails rather than waits.
 pub struct Seat {
-    pub(super) batch: Arc<Batch>,
-    pub(super) k: usize,
+    batch: Arc<Batch>,
+    k: usize,
 }
 
 impl Drop for Seat {

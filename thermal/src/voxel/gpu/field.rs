@@ -63,30 +63,30 @@ pub(super) struct Record {
     pub(super) phi: f32,
 }
 
-pub(super) struct Buffers {
-    pub(super) uniform: wgpu::Buffer,
-    pub(super) nb: wgpu::Buffer,
-    pub(super) area: wgpu::Buffer,
-    pub(super) h: wgpu::Buffer,
-    pub(super) t: wgpu::Buffer,
-    pub(super) phi: [wgpu::Buffer; 2],
-    pub(super) acc: wgpu::Buffer,
-    pub(super) sources: wgpu::Buffer,
-    pub(super) pairs: wgpu::Buffer,
-    pub(super) dep_off: wgpu::Buffer,
-    pub(super) dep_vox: wgpu::Buffer,
-    pub(super) peak: wgpu::Buffer,
-    pub(super) above: wgpu::Buffer,
-    pub(super) hot: wgpu::Buffer,
-    pub(super) records: wgpu::Buffer,
-    pub(super) tables: wgpu::Buffer,
-    pub(super) conductivity: wgpu::Buffer,
-    pub(super) delta: wgpu::Buffer,
-    pub(super) losses: wgpu::Buffer,
+struct Buffers {
+    uniform: wgpu::Buffer,
+    nb: wgpu::Buffer,
+    area: wgpu::Buffer,
+    h: wgpu::Buffer,
+    t: wgpu::Buffer,
+    phi: [wgpu::Buffer; 2],
+    acc: wgpu::Buffer,
+    sources: wgpu::Buffer,
+    pairs: wgpu::Buffer,
+    dep_off: wgpu::Buffer,
+    dep_vox: wgpu::Buffer,
+    peak: wgpu::Buffer,
+    above: wgpu::Buffer,
+    hot: wgpu::Buffer,
+    records: wgpu::Buffer,
+    tables: wgpu::Buffer,
+    conductivity: wgpu::Buffer,
+    delta: wgpu::Buffer,
+    losses: wgpu::Buffer,
 }
 
 /// The bind groups of both parities: Φ read from `phi[parity]`, written to the other.
-pub(super) fn groups_of(g: &Gpu, b: &Buffers) -> [wgpu::BindGroup; 2] {
+fn groups_of(g: &Gpu, b: &Buffers) -> [wgpu::BindGroup; 2] {
     let group = |parity: usize| {
         let bufs: [&wgpu::Buffer; BINDINGS as usize] = [
             &b.nb,
@@ -137,12 +137,12 @@ pub(super) fn groups_of(g: &Gpu, b: &Buffers) -> [wgpu::BindGroup; 2] {
 /// What a field was made for, per member: past any of these it is made again (voxels, pairs)
 /// or the buffer grows (sources, records).
 #[derive(Clone, Copy)]
-pub(super) struct Capacity {
-    pub(super) voxels: usize,
-    pub(super) pairs: usize,
-    pub(super) sources: usize,
+struct Capacity {
+    voxels: usize,
+    pairs: usize,
+    sources: usize,
     /// All members' together.
-    pub(super) records: usize,
+    records: usize,
 }
 
 /// What one member changed on the host before a step: written to the device before it.
@@ -232,36 +232,36 @@ impl Reply {
 /// sent.
 pub(super) struct Field {
     pub(super) gpu: Arc<Gpu>,
-    pub(super) members: usize,
-    pub(super) cap: Capacity,
+    members: usize,
+    cap: Capacity,
     /// Deposits in the program: a member's stride in `peak` and `above`.
-    pub(super) dep_cap: usize,
-    pub(super) b: Buffers,
+    dep_cap: usize,
+    b: Buffers,
     /// Per parity: Φ read from `phi[parity]`, written to the other.
-    pub(super) groups: [wgpu::BindGroup; 2],
-    pub(super) parity: usize,
+    groups: [wgpu::BindGroup; 2],
+    parity: usize,
     /// A regular voxel's strides across y and z (`area_of`).
-    pub(super) strides: [u32; 2],
+    strides: [u32; 2],
     /// Voxels regular when the field was made.
     pub(super) regular: usize,
     /// Voxels, interface pairs and laid deposits the device has.
-    pub(super) n: usize,
-    pub(super) pairs: usize,
-    pub(super) deps: usize,
-    pub(super) dep_vox: usize,
+    n: usize,
+    pairs: usize,
+    deps: usize,
+    dep_vox: usize,
     /// Per member, the arc's heat the device has; the longest list's length.
-    pub(super) sources: Vec<Vec<[u32; 2]>>,
-    pub(super) n_sources: usize,
-    pub(super) encoder: Option<wgpu::CommandEncoder>,
+    sources: Vec<Vec<[u32; 2]>>,
+    n_sources: usize,
+    encoder: Option<wgpu::CommandEncoder>,
     /// The read-back buffer, kept between reads.
-    pub(super) staging: Option<wgpu::Buffer>,
+    staging: Option<wgpu::Buffer>,
     /// Uniforms of the steps recorded since the last submission.
-    pub(super) slots: Vec<Params>,
+    slots: Vec<Params>,
     /// Workgroups whose loss sums may be non-zero.
-    pub(super) acc_groups: usize,
+    acc_groups: usize,
 }
 
-pub(super) fn storage(gpu: &Gpu, label: &str, bytes: usize) -> wgpu::Buffer {
+fn storage(gpu: &Gpu, label: &str, bytes: usize) -> wgpu::Buffer {
     gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: bytes.max(16).next_multiple_of(4) as u64,
@@ -305,7 +305,7 @@ pub(super) fn area_of(m: &VoxelModel, i: usize, [sy, sz]: [u32; 2]) -> [f32; 2] 
     if regular { [-1.0, 0.0] } else { [a, b] }
 }
 
-pub(super) fn tables_of(m: &VoxelModel) -> (Vec<[f32; 2]>, Vec<f32>) {
+fn tables_of(m: &VoxelModel) -> (Vec<[f32; 2]>, Vec<f32>) {
     let plate = m.substrate.as_deref();
     let mut t_phi = m.tables.t_phi.clone();
     t_phi.extend_from_slice(plate.map_or(&m.tables.t_phi, |s| &s.tables.t_phi));
@@ -459,7 +459,7 @@ impl Field {
         m.h.len() <= self.cap.voxels && interface_len(m) <= self.cap.pairs
     }
 
-    pub(super) fn append_pairs(&mut self, new: &[[u32; 2]]) {
+    fn append_pairs(&mut self, new: &[[u32; 2]]) {
         let q = &self.gpu.queue;
         q.write_buffer(
             &self.b.pairs,
@@ -510,7 +510,7 @@ impl Field {
     /// Bring the device up to the members' changes before step k: the geometry (voxels
     /// switched on and the faces they closed, interface pairs, deposits observed) once, from
     /// member 0's; each member's temperatures put, arc's heat and losses.
-    pub(super) fn take_changes(&mut self, rounds: &[Round], k: usize) -> Result<(), String> {
+    fn take_changes(&mut self, rounds: &[Round], k: usize) -> Result<(), String> {
         let [n, pairs, deps] = rounds[0].steps[k].shape;
         if n > self.cap.voxels || pairs > self.cap.pairs {
             return Err(format!(
@@ -600,7 +600,7 @@ impl Field {
 
     /// Every member's arc's heat, each list padded to the longest with voxels the shader
     /// skips.
-    pub(super) fn write_sources(&mut self) {
+    fn write_sources(&mut self) {
         let longest = self.sources.iter().map(Vec::len).max().unwrap_or(0);
         if longest > self.cap.sources {
             self.cap.sources = 2 * longest;
@@ -620,7 +620,7 @@ impl Field {
         self.n_sources = longest;
     }
 
-    pub(super) fn base_params(&self) -> Params {
+    fn base_params(&self) -> Params {
         let (x, _) = self.gpu.grid(self.n.max(self.deps).max(self.cap.records));
         Params {
             cap: self.cap.voxels as u32,
@@ -634,7 +634,7 @@ impl Field {
     /// Record one step with constants `p` (its sizes, strides and nx are set here) for every
     /// member, its hottest metal into slot `slot`: the prologue, the stencil, the interface,
     /// the observation of deposits 0..p.n_deps.
-    pub(super) fn step(&mut self, p: Params, slot: usize) {
+    fn step(&mut self, p: Params, slot: usize) {
         let mut p = Params {
             n: self.n as u32,
             n_sources: self.n_sources as u32,
@@ -682,11 +682,7 @@ impl Field {
     }
 
     /// Record a pass with uniform slot `p`, bound at this step's parity.
-    pub(super) fn record(
-        &mut self,
-        p: Params,
-        pass_fn: impl FnOnce(&Field, &mut wgpu::ComputePass, &Params),
-    ) {
+    fn record(&mut self, p: Params, pass_fn: impl FnOnce(&Field, &mut wgpu::ComputePass, &Params)) {
         if self.slots.len() >= SLOTS {
             self.submit();
         }
@@ -710,7 +706,7 @@ impl Field {
     }
 
     /// Send the recorded steps to the device, their uniforms first.
-    pub(super) fn submit(&mut self) {
+    fn submit(&mut self) {
         let Some(encoder) = self.encoder.take() else {
             return;
         };
@@ -728,7 +724,7 @@ impl Field {
     /// and each step's hottest laid metal, and as `what` asks the voxels' temperatures, or the
     /// whole field (h, T, Φ) with each laid deposit's peak and time above. Clears the device's
     /// running sums.
-    pub(super) fn read(
+    fn read(
         &mut self,
         what: Read,
         hot: usize,
@@ -836,7 +832,7 @@ impl Field {
     }
 }
 
-pub(super) fn write<T: Pod>(q: &wgpu::Queue, buf: &wgpu::Buffer, data: &[T]) {
+fn write<T: Pod>(q: &wgpu::Queue, buf: &wgpu::Buffer, data: &[T]) {
     if !data.is_empty() {
         q.write_buffer(buf, 0, bytemuck::cast_slice(data));
     }

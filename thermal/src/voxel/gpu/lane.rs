@@ -334,7 +334,7 @@ impl VoxelModel {
         match &self.field.home {
             Home::None => None,
             Home::Alone(f) => Some(f.regular),
-            Home::Batch(b, _) => b.lock().field.as_ref().map(|f| f.regular),
+            Home::Batch(b, _) => b.regular(),
         }
     }
 }
