@@ -66,6 +66,7 @@ fn run(py: Python<'_>, argv: Vec<String>, progress: Option<Py<PyAny>>) -> PyResu
         }
     })));
     thermal::run::clear_stop();
+    sim::commands::follow::clear_interrupt();
     let (tx, rx) = channel();
     // Behind a lock only to be Sync for `detach`: this thread alone receives.
     let rx = Mutex::new(rx);

@@ -7,7 +7,23 @@
 
 use crate::{root, scratch};
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, ExitStatus};
+
+/// `program` under coreutils' `timeout`: ended after `seconds` (and killed 10 s later).
+fn bounded(seconds: u32, program: &Path) -> Command {
+    let mut c = Command::new("timeout");
+    c.args(["--kill-after=10", &seconds.to_string()])
+        .arg(program);
+    c
+}
+
+/// What a run ended by `bounded`'s limit says of it.
+fn timed_out(status: &ExitStatus) -> &'static str {
+    match status.code() {
+        Some(124) | Some(137) => " (timed out)",
+        _ => "",
+    }
+}
 
 #[test]
 #[cfg_attr(
@@ -33,7 +49,9 @@ fn the_package_passes_its_tests() {
             .current_dir(root())),
         "pip install ./python failed"
     );
-    let out = Command::new(venv.join("bin/python"))
+    // Bounded: a run that hangs (a lost Ctrl-C once left `follow` waiting for data) fails
+    // here rather than holding CI to its limit. They take about 16 s alone.
+    let out = bounded(600, &venv.join("bin/python"))
         .args(["-m", "unittest", "-v", "python/tests/test_waamtwin.py"])
         .env("WAAMTWIN_BIN", env!("CARGO_BIN_EXE_waamtwin"))
         .current_dir(root())
@@ -41,7 +59,11 @@ fn the_package_passes_its_tests() {
         .expect("run python");
     let said = String::from_utf8_lossy(&out.stderr);
     eprintln!("{said}");
-    assert!(out.status.success(), "the package's tests failed:\n{said}");
+    assert!(
+        out.status.success(),
+        "the package's tests failed{}:\n{said}",
+        timed_out(&out.status)
+    );
     assert!(said.contains("Ran 7 tests"), "{said}");
 
     // The notebooks: the GAMMA wall calibrated (it reads the measured builds) and a dome
@@ -53,7 +75,7 @@ fn the_package_passes_its_tests() {
         "pip install -r examples/requirements.txt failed"
     );
     let out = scratch("notebooks");
-    let run = Command::new(venv.join("bin/python"))
+    let run = bounded(1200, &venv.join("bin/python"))
         .arg(root().join("examples/run.py"))
         .arg(&out)
         .env("WAAMTWIN_DATA", crate::data())
@@ -62,7 +84,11 @@ fn the_package_passes_its_tests() {
         .expect("run the notebooks");
     let said =
         String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "the notebooks failed:\n{said}");
+    assert!(
+        run.status.success(),
+        "the notebooks failed{}:\n{said}",
+        timed_out(&run.status)
+    );
     for (notebook, plot) in [
         ("gamma_wall_calibrated.ipynb", "gamma_calibrated.png"),
         ("dome_planned_and_dwelled.ipynb", "dome_dwelled.png"),

@@ -535,10 +535,10 @@ pub fn together<T: Send, E: Send>(
             .map(|(k, (run, seat))| {
                 let (work, order) = (&work, &order);
                 s.spawn(move || {
-                    let out = work(k, run).map_err(|e| (order.fetch_add(1, Ordering::SeqCst), e));
-                    // The seat goes after the error is counted: the others fail after it.
-                    drop(seat);
-                    out
+                    // Held to the end: the seat goes after the error is counted, so the
+                    // others' failures that its going causes are counted after it.
+                    let _seat = seat;
+                    work(k, run).map_err(|e| (order.fetch_add(1, Ordering::SeqCst), e))
                 })
             })
             .collect();

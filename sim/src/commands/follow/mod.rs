@@ -211,9 +211,18 @@ fn in_celsius(values: &mut [Option<f64>], kelvin: bool, ambient_k: f64, c: &mut 
 /// it ends when the data stop, with every output written.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
-/// End the run that follows now at its next look (the Python package's Ctrl-C).
+/// End the run that follows now at its next look (the Python package's Ctrl-C). One that
+/// comes while the run is still setting up (the twin's members started, the outputs opened)
+/// ends it at its first look: the run never clears it, its caller does ([`clear_interrupt`]).
 pub fn interrupt() {
     INTERRUPTED.store(true, Ordering::SeqCst);
+}
+
+/// Forget an [`interrupt`]: before a run in a process that may have interrupted one before.
+/// The run itself does not, or a Ctrl-C during its setup would be lost and it would wait for
+/// data for ever (the Python test's SIGINT at 8 s, on a loaded machine, once did).
+pub fn clear_interrupt() {
+    INTERRUPTED.store(false, Ordering::SeqCst);
 }
 
 /// Make Ctrl-C end `follow` gracefully. The command line calls it before `follow`; a library
@@ -299,7 +308,6 @@ pub fn run(
         (&live.twin.horizons_s, interpass_c),
         connect,
     )?;
-    INTERRUPTED.store(false, Ordering::SeqCst);
     let longest = live.twin.horizons_s.iter().copied().fold(0.0, f64::max);
     let clock = Instant::now();
     let (mut last_new, mut last_any, mut last_rewrite) =

@@ -193,13 +193,13 @@ pub(super) struct Parts<'a> {
 
 /// [`Parts`] owned: what a batch hands a member.
 pub(super) struct Reply {
-    pub(super) h: Vec<f32>,
-    pub(super) t: Vec<f32>,
-    pub(super) phi: Vec<f32>,
-    pub(super) peak: Vec<f32>,
-    pub(super) above: Vec<f32>,
-    pub(super) sums: [f64; 3],
-    pub(super) hot: Vec<f32>,
+    h: Vec<f32>,
+    t: Vec<f32>,
+    phi: Vec<f32>,
+    peak: Vec<f32>,
+    above: Vec<f32>,
+    sums: [f64; 3],
+    hot: Vec<f32>,
 }
 
 impl Reply {
