@@ -174,8 +174,8 @@ fn a_plate_steps_on_the_fast_path_as_on_the_cpu() {
 }
 
 /// Member k of a small ensemble: its arc's heat times `scale`, its losses (convection W/m²K,
-/// emissivity, table W/m²K); halfway through it takes other losses, and member 1 has a
-/// temperature put on its plate (what a data assimilation does between calls).
+/// emissivity, table W/m²K); at deposit 72 it takes the next member's losses, and member 1 has
+/// a temperature put on its plate (what a data assimilation does between calls).
 const MEMBERS: [(f64, [f64; 3]); 3] = [
     (1.0, [15.0, 0.6, 100.0]),
     (0.8, [40.0, 0.3, 300.0]),
