@@ -674,25 +674,23 @@ impl<R: HeatRun> Planner<'_, R> {
         };
         // The paces that failed.
         let mut failed: Vec<f64> = Vec::new();
-        let mut why = None;
+        let mut unrested = None;
         let mut tried = vec![1.0];
         if self.pace != 1.0 {
             tried.push(self.pace);
         }
         for k in tried {
-            let (x, risk, _) = segment(k).try_dwell(&self.run, 0.0, &mut self.simulated)?;
-            match risk {
-                None => {
-                    let start = self.run.clone();
-                    return self.keep(stretch, k, x, None, start);
-                }
-                Some((_, w)) => {
-                    why = why.or(Some(w));
-                    failed.push(k);
-                }
+            let trial = segment(k).try_dwell(&self.run, 0.0, &mut self.simulated)?;
+            if trial.1.is_none() {
+                let start = self.run.clone();
+                return self.keep(stretch, k, trial.0, None, start);
             }
+            failed.push(k);
+            // The trial at the planned pace: the dwell remedy starts from it.
+            unrested = unrested.or(Some(trial));
         }
-        let why = why.expect("a risky trial");
+        let unrested = unrested.expect("a risky trial at the planned pace");
+        let why = unrested.1.expect("a risky trial").1;
         let slowest = s.pacing.slowest(stretch.clone());
         let mut remedies = Vec::new();
         // Slowing down: the smallest of a few paces up to the slowest that keeps the revolution
@@ -724,7 +722,7 @@ impl<R: HeatRun> Planner<'_, R> {
                 None => failed.push(k),
             }
         }
-        remedies.push(self.dwells(segment(1.0), why)?);
+        remedies.push(self.dwells(segment(1.0), &unrested, why)?);
         // The cheapest that keeps every point safe, else the one that leaves fewest at risk.
         let best = remedies
             .into_iter()
@@ -771,12 +769,13 @@ impl<R: HeatRun> Planner<'_, R> {
             pace: 1.0,
         };
         let start = self.run.clone();
-        let (x, risk, _) = segment.try_dwell(&start, 0.0, &mut self.simulated)?;
-        let Some((_, why)) = risk else {
-            return self.keep(stretch, 1.0, x, None, start);
+        let unrested = segment.try_dwell(&start, 0.0, &mut self.simulated)?;
+        let Some((_, why)) = unrested.1 else {
+            return self.keep(stretch, 1.0, unrested.0, None, start);
         };
         let guess = self.last_dwell;
-        let (d, x) = match segment.smallest_dwell(&start, guess, &mut self.simulated)? {
+        let smallest = segment.smallest_dwell(&start, &unrested, guess, &mut self.simulated)?;
+        let (d, x) = match smallest {
             Some(pass) => pass,
             None => {
                 let max = s.dwell.max_dwell_s;
@@ -863,7 +862,12 @@ impl<R: HeatRun> Planner<'_, R> {
     /// The dwell remedy of a revolution's stretch at its segment's pace: dwells inside it just
     /// where they are needed (the least dwell), or one dwell before it (one arc stop), sized only
     /// when stops carry a weight or the point dwells cannot make it safe.
-    fn dwells(&mut self, segment: Segment, why: Risk) -> Result<Remedy<R>, ThermalError> {
+    fn dwells(
+        &mut self,
+        segment: Segment,
+        unrested: &Trial<R>,
+        why: Risk,
+    ) -> Result<Remedy<R>, ThermalError> {
         let s = self.s;
         let w = s.dwell.count_weight_s;
         let (rev, seg_end) = (segment.rev, segment.seg_end);
@@ -879,7 +883,8 @@ impl<R: HeatRun> Planner<'_, R> {
         self.simulated += point_sim as usize;
         let point_cost = point.iter().map(|p| p.1).sum::<f64>() + w * point.len() as f64;
         let whole = if w > 0.0 || !point_unresolved.is_empty() {
-            segment.smallest_dwell(&self.run, self.last_dwell, &mut self.simulated)?
+            let guess = self.last_dwell;
+            segment.smallest_dwell(&self.run, unrested, guess, &mut self.simulated)?
         } else {
             None
         };
@@ -1077,14 +1082,18 @@ impl Segment<'_> {
     /// The smallest dwell before the revolution that keeps it safe: cooling of the excess above
     /// ambient is close to exponential, so two tries give its time constant and the dwell that
     /// reaches the target; then the bracket closes to 10 %.
+    ///
+    /// `unrested` is this segment's trial without a dwell from `start` (already made by the
+    /// caller: the same laying would give the same run).
     fn smallest_dwell<R: HeatRun>(
         &self,
         start: &R,
+        unrested: &Trial<R>,
         guess: f64,
         simulated: &mut usize,
     ) -> Result<Option<(f64, R)>, ThermalError> {
-        let (x0, _, hot0) = self.try_dwell(start, 0.0, simulated)?;
-        let aim = self.s.aim_k(&x0, self.rev.first..self.rev.end);
+        let (x0, _, hot0) = unrested;
+        let (aim, hot0) = (self.s.aim_k(x0, self.rev.first..self.rev.end), *hot0);
         shortest_dwell(
             self.s,
             if guess > 0.0 { guess } else { 10.0 },
