@@ -134,6 +134,9 @@ where
         RGBColor(230, 140, 20),
         RGBColor(30, 150, 80),
         RGBColor(140, 60, 170),
+        RGBColor(20, 160, 190),
+        RGBColor(120, 120, 120),
+        RGBColor(160, 110, 40),
     ];
     for (k, (name, rows)) in series.iter().enumerate() {
         let c = colours[k % colours.len()];
