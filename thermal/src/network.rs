@@ -785,6 +785,9 @@ fn factor(start: &[u32], column: &[u32], ws: &mut Scratch) {
             })
             .collect();
     }
+    // The sweeps read a lower neighbour's value as already made: the runs must ascend (every
+    // caller's do: the active nodes in order, the levels' members kept sorted).
+    debug_assert!(ws.runs.windows(2).all(|w| w[0].1 <= w[1].0));
     let (edge_g, diag, pivot, mid) = (&ws.edge_g, &ws.diag, &mut ws.pivot, &ws.mid);
     for i in nodes(&ws.runs) {
         let mut d = diag[i];
