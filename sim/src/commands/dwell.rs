@@ -112,10 +112,17 @@ fn confidence_json(
     })
 }
 
+/// The revolution-dwell yardstick's cost in one-build times: 6 to 12 on the family's parts
+/// (each revolution's shortest safe dwell found by trying dwells through it; docs/PERFORMANCE.md
+/// "CI time"). Left out of the estimate before 2026-11-26, which then said 37 minutes for the
+/// R 400 dome's plan, still searching at 30.
+const YARDSTICK_BUILDS: f64 = 9.0;
+
 /// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
 /// the cache's cooled copies: about four models at once), about 2.5 builds' worth of search
-/// (docs/PERFORMANCE.md), the run without dwells and the one with them (dwells about double
-/// the build time).
+/// (docs/PERFORMANCE.md), the revolution-dwell yardstick, the run without dwells and the one
+/// with them (dwells about double the build time). The baselines (`--no-baselines` leaves them
+/// out) are not counted.
 fn keeps(s: &Scenario) -> super::cost::Keeps {
     super::cost::Keeps {
         copies: 4.0,
@@ -124,6 +131,7 @@ fn keeps(s: &Scenario) -> super::cost::Keeps {
         // and both plans under every fresh draw.
         runs: 1.0
             + 2.5
+            + YARDSTICK_BUILDS
             + 2.0
             + s.confidence.as_ref().map_or(0.0, |c| {
                 4.5 + (c.uncertainty.mean.len() + 2) as f64 + 4.0 * c.check_draws as f64
