@@ -124,9 +124,10 @@ struct Scratch {
     /// 1 / the pivots of the incomplete Cholesky factor ([`factor`]).
     #[serde(skip)]
     pivot: Vec<f64>,
-    /// Per node, its first edge to a higher node (the rows are in column order).
+    /// Per node, its first edge to a higher node (the rows are in column order): structure,
+    /// made at the first solve and shared by the copies a checkpoint makes.
     #[serde(skip)]
-    mid: Vec<u32>,
+    mid: Arc<Vec<u32>>,
     /// Conductance of each adjacency entry this step (0 to inactive neighbours).
     #[serde(skip)]
     edge_g: Vec<f64>,
@@ -655,6 +656,7 @@ impl Clone for Scratch {
         Scratch {
             last_t: self.last_t.clone(),
             last_dt: self.last_dt,
+            mid: Arc::clone(&self.mid),
             ..Scratch::default()
         }
     }
@@ -778,12 +780,14 @@ fn cg(start: &[u32], column: &[u32], ws: &mut Scratch, tolerance: f64) -> usize 
 /// dominant M-matrix (Meijerink & van der Vorst 1977).
 fn factor(start: &[u32], column: &[u32], ws: &mut Scratch) {
     if ws.mid.len() + 1 != start.len() {
-        ws.mid = (0..start.len() - 1)
-            .map(|i| {
-                let row = &column[start[i] as usize..start[i + 1] as usize];
-                start[i] + row.partition_point(|&j| (j as usize) < i) as u32
-            })
-            .collect();
+        ws.mid = Arc::new(
+            (0..start.len() - 1)
+                .map(|i| {
+                    let row = &column[start[i] as usize..start[i + 1] as usize];
+                    start[i] + row.partition_point(|&j| (j as usize) < i) as u32
+                })
+                .collect(),
+        );
     }
     // The sweeps read a lower neighbour's value as already made: the runs must ascend (every
     // caller's do: the active nodes in order, the levels' members kept sorted).
