@@ -174,14 +174,21 @@ fn the_ornl_log_over_opcua_forecasts_as_the_file_does_through_a_server_restart()
     same("restarted");
     let v = follow_json(&dir.join("restarted"));
     assert_eq!(v["rows"], ROWS, "{v}");
-    assert_eq!(v["opcua"]["reconnects"], 1, "{v}");
+    // One reconnection at least, each after a loss (the kill, and the second server's end,
+    // are two). On a loaded machine the client may lose the second server once more and come
+    // back (CI at stop 45: two reconnections, two losses, the same forecasts): the claim is
+    // the forecasts, not how often the connection came back.
+    let reconnects = v["opcua"]["reconnects"].as_u64().unwrap();
+    let lost = v["opcua"]["lost"].as_array().unwrap().len() as u64;
+    assert!((1..=lost).contains(&reconnects), "{v}");
     // Rows from 150 to the last the client had before the kill came twice, all 13 values of
     // each (the last few rows may die in flight with the server, and come once, from the
-    // second).
+    // second); a further new session sends each node's current value once more.
     let repeated = v["opcua"]["repeated"].as_u64().unwrap();
     let served = SERVED.len() as u64;
+    let most = (50 + reconnects) * served;
     assert!(
-        repeated.is_multiple_of(served) && (40 * served..=51 * served).contains(&repeated),
+        repeated.is_multiple_of(served) && (40 * served..=most).contains(&repeated),
         "{v}"
     );
 }

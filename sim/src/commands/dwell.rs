@@ -9,6 +9,7 @@ use crate::part::load_part;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::dwell::DwellPlan;
 use crate::pipeline::dwelled::{self, AtMean, Dwelled};
+use crate::pipeline::params::ThermalModel;
 use crate::pipeline::{Build, Simulation};
 use crate::pipeline::{arc_stops, risk};
 use crate::progress::Terminal;
@@ -119,19 +120,26 @@ fn confidence_json(
 const YARDSTICK_BUILDS: f64 = 9.0;
 
 /// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
-/// the cache's cooled copies: about four models at once), about 2.5 builds' worth of search
-/// (docs/PERFORMANCE.md), the revolution-dwell yardstick, the run without dwells and the one
-/// with them (dwells about double the build time). The baselines (`--no-baselines` leaves them
-/// out) are not counted.
+/// the cache's cooled copies: about four models at once) and, beside it, the revolution-dwell
+/// yardstick (its run, the revolution's start and a try: three more), about 2.5 builds' worth
+/// of search (docs/PERFORMANCE.md), the yardstick, the run without dwells and the one with them
+/// (dwells about double the build time). The baselines (`--no-baselines` leaves them out) are
+/// not counted.
 fn keeps(s: &Scenario) -> super::cost::Keeps {
+    // The thin wall steps on one thread: with a second, the search runs within the yardstick's
+    // time ([`dwelled::dwell`]). The voxel model's runs share the threads.
+    let beside = s.thermal.model == ThermalModel::ThinWall && rayon::current_num_threads() > 1;
+    let searches = match beside {
+        true => YARDSTICK_BUILDS.max(2.5),
+        false => YARDSTICK_BUILDS + 2.5,
+    };
     super::cost::Keeps {
-        copies: 4.0,
+        copies: 7.0,
         frames: s.output.frames,
         // At a confidence: the plan at the mean too, a run per parameter for the design point,
         // and both plans under every fresh draw.
         runs: 1.0
-            + 2.5
-            + YARDSTICK_BUILDS
+            + searches
             + 2.0
             + s.confidence.as_ref().map_or(0.0, |c| {
                 4.5 + (c.uncertainty.mean.len() + 2) as f64 + 4.0 * c.check_draws as f64

@@ -111,6 +111,21 @@ impl<'a> Checkpoints<'a> {
         }
     }
 
+    /// Stage `stage`'s result and the wall-clock seconds it took, where an earlier run kept it.
+    pub fn done<T: DeserializeOwned>(&mut self, stage: &str) -> Option<(T, f64)> {
+        let mut ck = self.for_stage();
+        let done = ck.load::<T>(stage)?;
+        Some((done, ck.before_s))
+    }
+
+    /// Keep `result` as stage `stage`'s, made elsewhere (on another thread) in `spent_s`
+    /// wall-clock seconds.
+    pub fn keep_done<T: Serialize>(&mut self, stage: &str, result: &T, spent_s: f64) {
+        let mut ck = self.for_stage();
+        ck.before_s = spent_s;
+        ck.save(stage, result);
+    }
+
     /// Stage `stage`'s result and the wall-clock seconds it took: kept by an earlier run, or
     /// made by `work` (which may keep its work in progress under `stage.run`) and kept.
     pub fn stage<T, E>(
@@ -178,6 +193,23 @@ mod tests {
         assert_eq!(bits(&first), bits(&again));
         assert!(m.kept.contains_key("before") && !m.kept.contains_key("before.run"));
         assert_eq!(m.saves, 2);
+    }
+
+    /// A stage made on another thread is kept as [`Checkpoints::stage`] keeps one: a resumed
+    /// run takes it, with the seconds it took, and `stage` does not make it again.
+    #[test]
+    fn a_stage_made_elsewhere_is_kept_with_its_time() {
+        let mut m = Memory::default();
+        let mut ck = Checkpoints::to(&mut m);
+        assert!(ck.done::<u32>("revolution_dwell").is_none());
+        ck.keep_done("revolution_dwell", &7u32, 42.0);
+        let (kept, spent_s) = ck.done::<u32>("revolution_dwell").unwrap();
+        assert_eq!(kept, 7);
+        assert!((42.0..43.0).contains(&spent_s), "{spent_s} s");
+        let (again, _) = ck
+            .stage::<u32, ()>("revolution_dwell", |_, _| panic!("done already"))
+            .unwrap();
+        assert_eq!(again, 7);
     }
 
     #[test]

@@ -183,26 +183,38 @@ pub fn dwell(
 }
 
 /// The dwell search (within the arc-stop budget where there is one), the revolution-dwell
-/// yardstick, and the better of the two.
+/// yardstick, and the better of the two. The yardstick is a rayon task beside the search: the
+/// two start from the same build and share nothing, so a second worker takes the shorter off
+/// the wall time (the thin wall steps on one thread), and the plans are those made one after
+/// the other. The scope is in place (the command already runs on a worker, `main.rs`): on one
+/// thread its worker makes the yardstick itself after the search, where a blocking join would
+/// wait on the worker it holds.
 fn search(b: &Build, ck: &mut Checkpoints<'_>, report: &mut dyn Report) -> Result<Searched, Error> {
-    report.stage("planning the dwells");
-    let (plan, budget, search_s) = match b.params.dwell.max_arc_stops {
-        Some(max) => {
-            let (r, wall_s) = ck.stage("search", |_, _| arc_stops::within_budget(b, max))?;
-            (r.plan.clone(), Some((max, r)), wall_s)
+    report.stage("planning the dwells, and beside them the yardstick: one dwell a revolution");
+    let kept = ck.done::<DwellPlan>(YARDSTICK);
+    let mut made = None;
+    let searched = rayon::in_place_scope(|scope| {
+        if kept.is_none() {
+            scope.spawn(|_| {
+                let t = std::time::Instant::now();
+                made = Some(
+                    b.revolution_dwells()
+                        .map(|p| (p, t.elapsed().as_secs_f64())),
+                );
+            });
         }
-        None => {
-            let weight = b.params.dwell.count_weight_s;
-            let (plan, wall_s) = ck.stage("search", |ck, progress| {
-                b.plan_dwells_kept(weight, ck, progress)
-            })?;
-            (plan, None, wall_s)
+        searched_plan(b, ck)
+    });
+    let (plan, budget, search_s) = searched?;
+    let revolution = match (kept, made) {
+        (Some((plan, _)), _) => plan,
+        (None, Some(made)) => {
+            let (plan, spent_s) = made?;
+            ck.keep_done(YARDSTICK, &plan, spent_s);
+            plan
         }
+        (None, None) => unreachable!("the yardstick is kept or made"),
     };
-    report.stage("the yardstick: one dwell before each revolution");
-    let revolution = ck
-        .stage("revolution_dwell", |_, _| b.revolution_dwells())?
-        .0;
     let searched = arc_stops::arc_stops(&plan);
     let searched_build_s = arc_stops::build_time_s(b, &plan);
     let (plan, kept) = arc_stops::never_worse(b, plan, &revolution);
@@ -214,6 +226,29 @@ fn search(b: &Build, ck: &mut Checkpoints<'_>, report: &mut dyn Report) -> Resul
         searched,
         searched_build_s,
         kept,
+    })
+}
+
+/// The checkpoint stage of the revolution-dwell yardstick.
+const YARDSTICK: &str = "revolution_dwell";
+
+/// The search's plan, the budget's result where there is one, and the seconds it took.
+type SearchedPlan = (DwellPlan, Option<(usize, Budgeted)>, f64);
+
+/// The dwell search, within the arc-stop budget where there is one.
+fn searched_plan(b: &Build, ck: &mut Checkpoints<'_>) -> Result<SearchedPlan, Error> {
+    Ok(match b.params.dwell.max_arc_stops {
+        Some(max) => {
+            let (r, wall_s) = ck.stage("search", |_, _| arc_stops::within_budget(b, max))?;
+            (r.plan.clone(), Some((max, r)), wall_s)
+        }
+        None => {
+            let weight = b.params.dwell.count_weight_s;
+            let (plan, wall_s) = ck.stage("search", |ck, progress| {
+                b.plan_dwells_kept(weight, ck, progress)
+            })?;
+            (plan, None, wall_s)
+        }
     })
 }
 
