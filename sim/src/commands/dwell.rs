@@ -119,27 +119,32 @@ fn confidence_json(
 /// R 400 dome's plan, still searching at 30.
 const YARDSTICK_BUILDS: f64 = 9.0;
 
+/// The arc-stop bound's cost in one-build times: each deposit laid about twice (a stretch found,
+/// then laid again to its deadline; `pipeline::bound`), 2.0 builds measured on the R 100 dome.
+const BOUND_BUILDS: f64 = 2.0;
+
 /// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
 /// the cache's cooled copies: about four models at once) and, beside it, the revolution-dwell
-/// yardstick (its run, the revolution's start and a try: three more), about 2.5 builds' worth
-/// of search (docs/PERFORMANCE.md), the yardstick, the run without dwells and the one with them
-/// (dwells about double the build time). The baselines (`--no-baselines` leaves them out) are
-/// not counted.
+/// yardstick (its run, the revolution's start and a try: three more). It runs the build without
+/// dwells, about 2.5 builds' worth of search (docs/PERFORMANCE.md) and the bound, the
+/// yardstick beside those three, and the run with the dwells (dwells about double the build
+/// time). The baselines (`--no-baselines` leaves them out) are not counted.
 fn keeps(s: &Scenario) -> super::cost::Keeps {
-    // The thin wall steps on one thread: with a second, the search runs within the yardstick's
-    // time ([`dwelled::dwell`]). The voxel model's runs share the threads.
+    // The thin wall steps on one thread: with a second, the run without dwells, the search and
+    // the bound run within the yardstick's time ([`dwelled::dwell`]). The voxel model's runs
+    // share the threads.
     let beside = s.thermal.model == ThermalModel::ThinWall && rayon::current_num_threads() > 1;
-    let searches = match beside {
-        true => YARDSTICK_BUILDS.max(2.5),
-        false => YARDSTICK_BUILDS + 2.5,
+    let rest = 1.0 + 2.5 + BOUND_BUILDS;
+    let together = match beside {
+        true => YARDSTICK_BUILDS.max(rest),
+        false => YARDSTICK_BUILDS + rest,
     };
     super::cost::Keeps {
         copies: 7.0,
         frames: s.output.frames,
         // At a confidence: the plan at the mean too, a run per parameter for the design point,
         // and both plans under every fresh draw.
-        runs: 1.0
-            + searches
+        runs: together
             + 2.0
             + s.confidence.as_ref().map_or(0.0, |c| {
                 4.5 + (c.uncertainty.mean.len() + 2) as f64 + 4.0 * c.check_draws as f64

@@ -48,6 +48,9 @@ pub struct Search<'a> {
     pub pacing: &'a Pacing<'a>,
     /// The remedies a revolution may get.
     pub policy: Policy,
+    /// Set by whoever waits on this search when it no longer wants the result (the work beside
+    /// it failed): the search ends before its next revolution with [`ThermalError::Stopped`].
+    pub stop: Option<&'a std::sync::atomic::AtomicBool>,
 }
 
 /// The remedies the planner may give a revolution outside the closing zone.
@@ -536,6 +539,13 @@ pub fn plan_dwells_kept<R: HeatRun + Serialize + DeserializeOwned>(
     for r in from..until {
         if r > from {
             ck.save_if_due(stage, || p.kept(r, zone));
+        }
+        if s.stop
+            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
+        {
+            return Err(ThermalError::Stopped {
+                time_s: p.run.now(),
+            });
         }
         let rev = p.revs[r];
         let copy = near[rev.first..rev.end]

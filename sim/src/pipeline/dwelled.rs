@@ -15,6 +15,7 @@ use super::dwell::wait_until_cool;
 use super::dwell::{DwellPlan, Uniform, dwell_points, first_risk, uniform_baseline};
 use super::risk::Risk;
 use super::{Build, Error, Report, Simulation};
+use std::sync::atomic::{AtomicBool, Ordering};
 use thermal::ThermalError;
 
 /// What a dwell run does beyond the plan.
@@ -114,23 +115,8 @@ pub fn dwell(
         Some(m) => confidence::build_at(&b, &m.uncertainty, &m.design.x),
         None => b,
     };
-    report.stage("heating the build");
-    let before = b.simulate_kept(
-        &Cooling::default(),
-        0,
-        Vec::new(),
-        ck,
-        "before",
-        &mut |k, n| report.laid(k, n),
-    )?;
-    let searched = search(&b, ck, report)?;
-    let bound = match &searched.budget {
-        Some((_, r)) => r.bound.clone(),
-        None => {
-            report.stage("the fewest arc stops any plan can make");
-            ck.stage("bound", |_, _| b.arc_stops_lower_bound())?.0
-        }
-    };
+    let ((before, bound), searched) =
+        with_yardstick(&b, ck, |ck| beside_the_yardstick(&b, ck, report))?;
     report.stage("heating the build");
     let after = b.simulate_kept(
         &searched.plan.cooling,
@@ -182,30 +168,42 @@ pub fn dwell(
     })
 }
 
-/// The dwell search (within the arc-stop budget where there is one), the revolution-dwell
-/// yardstick, and the better of the two. The yardstick is a rayon task beside the search: the
-/// two start from the same build and share nothing, so a second worker takes the shorter off
-/// the wall time (the thin wall steps on one thread), and the plans are those made one after
-/// the other. The scope is in place (the command already runs on a worker, `main.rs`): on one
-/// thread its worker makes the yardstick itself after the search, where a blocking join would
-/// wait on the worker it holds.
-fn search(b: &Build, ck: &mut Checkpoints<'_>, report: &mut dyn Report) -> Result<Searched, Error> {
-    report.stage("planning the dwells, and beside them the yardstick: one dwell a revolution");
+/// `work` (which makes the dwell search's plan, and what else `T` holds) with the
+/// revolution-dwell yardstick beside it; the search's plan is weighed against the yardstick's
+/// and the better kept ([`arc_stops::never_worse`]).
+///
+/// The yardstick is a rayon task: it starts from the build and shares nothing with the work,
+/// so a second worker takes the shorter of the two off the wall time (the thin wall steps on
+/// one thread), and the results are those made one after the other. The scope is in place (the
+/// command already runs on a worker, `main.rs`): on one thread its worker makes the yardstick
+/// itself after the work, where a blocking join would wait on the worker it holds. Where the
+/// work fails, the yardstick is told to stop at its next revolution, so that the error is not
+/// held back by a plan no one will read.
+fn with_yardstick<T>(
+    b: &Build,
+    ck: &mut Checkpoints<'_>,
+    work: impl FnOnce(&mut Checkpoints<'_>) -> Result<(T, SearchedPlan), Error>,
+) -> Result<(T, Searched), Error> {
     let kept = ck.done::<DwellPlan>(YARDSTICK);
+    let stop = AtomicBool::new(false);
     let mut made = None;
-    let searched = rayon::in_place_scope(|scope| {
+    let done = rayon::in_place_scope(|scope| {
         if kept.is_none() {
             scope.spawn(|_| {
                 let t = std::time::Instant::now();
                 made = Some(
-                    b.revolution_dwells()
+                    b.revolution_dwells_unless(&stop)
                         .map(|p| (p, t.elapsed().as_secs_f64())),
                 );
             });
         }
-        searched_plan(b, ck)
+        let done = work(ck);
+        if done.is_err() {
+            stop.store(true, Ordering::Relaxed);
+        }
+        done
     });
-    let (plan, budget, search_s) = searched?;
+    let (other, (plan, budget, search_s)) = done?;
     let revolution = match (kept, made) {
         (Some((plan, _)), _) => plan,
         (None, Some(made)) => {
@@ -218,7 +216,7 @@ fn search(b: &Build, ck: &mut Checkpoints<'_>, report: &mut dyn Report) -> Resul
     let searched = arc_stops::arc_stops(&plan);
     let searched_build_s = arc_stops::build_time_s(b, &plan);
     let (plan, kept) = arc_stops::never_worse(b, plan, &revolution);
-    Ok(Searched {
+    let searched = Searched {
         plan,
         budget,
         search_s,
@@ -226,7 +224,37 @@ fn search(b: &Build, ck: &mut Checkpoints<'_>, report: &mut dyn Report) -> Resul
         searched,
         searched_build_s,
         kept,
-    })
+    };
+    Ok((other, searched))
+}
+
+/// What the dwell command makes beside the yardstick, one after another: the build heated
+/// without dwells, the search, and the fewest arc stops any plan can make (the budget's bound
+/// where the search had one).
+fn beside_the_yardstick(
+    b: &Build,
+    ck: &mut Checkpoints<'_>,
+    report: &mut dyn Report,
+) -> Result<((Simulation, StopsBound), SearchedPlan), Error> {
+    report.stage("heating the build");
+    let before = b.simulate_kept(
+        &Cooling::default(),
+        0,
+        Vec::new(),
+        ck,
+        "before",
+        &mut |k, n| report.laid(k, n),
+    )?;
+    report.stage("planning the dwells");
+    let searched = searched_plan(b, ck)?;
+    let bound = match &searched.1 {
+        Some((_, r)) => r.bound.clone(),
+        None => {
+            report.stage("the fewest arc stops any plan can make");
+            ck.stage("bound", |_, _| b.arc_stops_lower_bound())?.0
+        }
+    };
+    Ok(((before, bound), searched))
 }
 
 /// The checkpoint stage of the revolution-dwell yardstick.
@@ -258,7 +286,8 @@ fn plan_at_mean(
     report: &mut dyn Report,
 ) -> Result<AtMean, Error> {
     report.stage("the plan at the calibration's mean");
-    let plan = search(b, &mut Checkpoints::off(), &mut super::Quiet)?.plan;
+    let work = |ck: &mut Checkpoints<'_>| Ok(((), searched_plan(b, ck)?));
+    let plan = with_yardstick(b, &mut Checkpoints::off(), work)?.1.plan;
     report.stage("the design point: a run a standard deviation off per parameter");
     let design = confidence::design_point(b, &c.uncertainty, c.confidence, &plan.cooling)?;
     Ok(AtMean {
@@ -340,4 +369,63 @@ fn baselines(b: &Build, plan: &DwellPlan, ck: &mut Checkpoints<'_>) -> Result<Ba
         wait_risk,
         wait_risks,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use planner::mesh::{LowerLoop, Part};
+    use planner::shapes::Shape;
+
+    /// A closed dome R 20 mm on the thin wall.
+    fn dome() -> Build {
+        let text = "[part]\nshape = \"disk\"\nradius_mm = 1.0\n";
+        let s = crate::scenario::Scenario::parse(text, "test", ".".as_ref()).unwrap();
+        let mut planning = s.plan_params();
+        planning.n_points = 40;
+        let mesh = Shape::Hemisphere { radius_mm: 20.0 }.mesh(2.5);
+        let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
+        Build::new(super::super::plan(&part, &planning).unwrap(), s.params())
+    }
+
+    /// Told to stop, the yardstick ends before its first revolution with `Stopped`, where left
+    /// alone it makes a plan.
+    #[test]
+    fn a_yardstick_told_to_stop_ends_without_a_plan() {
+        let b = dome();
+        assert!(b.revolution_dwells_unless(&AtomicBool::new(false)).is_ok());
+        let stopped = b.revolution_dwells_unless(&AtomicBool::new(true));
+        assert!(
+            matches!(stopped, Err(ThermalError::Stopped { .. })),
+            "{stopped:?}"
+        );
+    }
+
+    /// The work beside the yardstick failing is what comes back (the yardstick stopped by it
+    /// is not reported in its place), and nothing is kept as the yardstick's.
+    #[test]
+    fn a_failure_beside_the_yardstick_is_what_comes_back() {
+        let b = dome();
+        let failed = with_yardstick(&b, &mut Checkpoints::off(), |_| {
+            Err::<((), SearchedPlan), _>(Error::Measured("the work beside".into()))
+        });
+        match failed {
+            Err(Error::Measured(m)) => assert_eq!(m, "the work beside"),
+            other => panic!("{:?}", other.map(|_| ())),
+        }
+    }
+
+    /// Beside the yardstick, the search's plan is the one made alone, and the yardstick's the
+    /// one `revolution_dwells` makes.
+    #[test]
+    fn beside_the_yardstick_the_plans_are_those_made_alone() {
+        let b = dome();
+        let work = |ck: &mut Checkpoints<'_>| Ok(((), searched_plan(&b, ck)?));
+        let (_, s) = with_yardstick(&b, &mut Checkpoints::off(), work).unwrap();
+        let json = |p: &DwellPlan| serde_json::to_string(p).unwrap();
+        assert_eq!(json(&s.revolution), json(&b.revolution_dwells().unwrap()));
+        let alone = b.plan_dwells().unwrap();
+        assert_eq!(s.searched, arc_stops::arc_stops(&alone));
+        assert_eq!(s.searched_build_s, arc_stops::build_time_s(&b, &alone));
+    }
 }

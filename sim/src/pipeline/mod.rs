@@ -345,6 +345,7 @@ impl Build {
             ambient_k: self.params.thermal.ambient_k,
             pacing,
             policy: dwell::Policy::Search,
+            stop: None,
         }
     }
 
@@ -362,11 +363,20 @@ impl Build {
     /// revolution, the shortest that keeps it safe, and the closing zone closed as the search
     /// closes it; `uncured` names the revolutions no such dwell keeps safe.
     pub fn revolution_dwells(&self) -> Result<DwellPlan, ThermalError> {
+        self.revolution_dwells_unless(&std::sync::atomic::AtomicBool::new(false))
+    }
+
+    /// [`Build::revolution_dwells`], ended with [`ThermalError::Stopped`] before the next
+    /// revolution once `stop` is set (by work beside it that failed).
+    pub fn revolution_dwells_unless(
+        &self,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<DwellPlan, ThermalError> {
         let (weight, policy) = (
             self.params.dwell.count_weight_s,
             dwell::Policy::RevolutionDwell,
         );
-        self.plan_dwells_as(weight, policy, &mut Checkpoints::off(), "")
+        self.plan_dwells_as(weight, policy, Some(stop), &mut Checkpoints::off(), "")
     }
 
     /// [`Build::plan_dwells_weighted`], the search kept under `stage` between revolutions
@@ -377,13 +387,14 @@ impl Build {
         ck: &mut Checkpoints<'_>,
         stage: &str,
     ) -> Result<DwellPlan, ThermalError> {
-        self.plan_dwells_as(weight_s, dwell::Policy::Search, ck, stage)
+        self.plan_dwells_as(weight_s, dwell::Policy::Search, None, ck, stage)
     }
 
     fn plan_dwells_as(
         &self,
         weight_s: f64,
         policy: dwell::Policy,
+        stop: Option<&std::sync::atomic::AtomicBool>,
         ck: &mut Checkpoints<'_>,
         stage: &str,
     ) -> Result<DwellPlan, ThermalError> {
@@ -397,6 +408,7 @@ impl Build {
         let search = Search {
             dwell: &dwell,
             policy,
+            stop,
             ..self.search(&pacing)
         };
         let (pl, deps, lead) = (&self.plan, &self.deposits, model.lead());
