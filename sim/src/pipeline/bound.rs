@@ -18,8 +18,10 @@
 //! `p_1 < p_2 < …` has `p_{i+1} ≤ F(p_i)`. `F` grows with `a` (a stretch started earlier is
 //! hotter where a later one starts cold), so the greedy plan that stops exactly at each deadline,
 //! `g_{i+1} = F(g_i)`, has `p_i ≤ g_i` for every i, and no plan ends with fewer stops than it: the
-//! count of the greedy's stops is a lower bound. Every deposit is laid about twice (a stretch is
-//! found, then laid again up to its deadline), so the bound costs about two builds.
+//! count of the greedy's stops is a lower bound. Every deposit is laid about once: a stretch's
+//! run keeps a copy of itself every [`COPY_EVERY`] deposits, and the next cold start is the
+//! last copy before the deadline laid on to it (a preheat read during deposit j sets the
+//! deadline j once j is laid, so the state at the deadline has passed by the time it is known).
 //!
 //! **What it rests on**, besides the comparison principle: the paces tried (every stretch at
 //! the planned pace and, where the power falls with the wire feed, the slowest the window
@@ -60,6 +62,19 @@ pub fn arc_stops_lower_bound<R: HeatRun>(
     zone: Option<usize>,
     fresh: R,
 ) -> Result<StopsBound, ThermalError> {
+    greedy(s, deps, lead, zone, fresh, COPY_EVERY)
+}
+
+/// [`arc_stops_lower_bound`], each stretch keeping a copy of its run every `copy_every`
+/// deposits (`usize::MAX`: none, every cold start laid again from the one before).
+fn greedy<R: HeatRun>(
+    s: &Search,
+    deps: &[Deposit],
+    lead: f64,
+    zone: Option<usize>,
+    fresh: R,
+    copy_every: usize,
+) -> Result<StopsBound, ThermalError> {
     let n = deps.len();
     let judged = judged_at(deps, lead);
     let along = arc_lengths(deps);
@@ -75,6 +90,7 @@ pub fn arc_stops_lower_bound<R: HeatRun>(
         along: &along,
         drop_reach,
         zone: zone.unwrap_or(usize::MAX),
+        copy_every,
     };
     let mut bound = StopsBound {
         stops: 0,
@@ -86,8 +102,9 @@ pub fn arc_stops_lower_bound<R: HeatRun>(
     let mut laid = 0usize;
     let (mut a, mut start) = (0, fresh);
     loop {
-        // The latest deadline over the paces tried, and the pace that reached it.
-        let mut best: Option<(usize, f64)> = None;
+        // The latest deadline over the paces tried, the pace that reached it and the stretch's
+        // last copy before it.
+        let mut best: Option<(usize, f64, (usize, R))> = None;
         let mut reaches_end = false;
         for &pace in &paces {
             match stretch.deadline(&start, a, pace, &mut laid, &mut bound.incurable)? {
@@ -95,18 +112,22 @@ pub fn arc_stops_lower_bound<R: HeatRun>(
                     reaches_end = true;
                     break;
                 }
-                Some(f) if best.is_none_or(|b| f > b.0) => best = Some((f, pace)),
+                Some((f, copy)) if best.as_ref().is_none_or(|b| f > b.0) => {
+                    best = Some((f, pace, copy))
+                }
                 Some(_) => {}
             }
         }
-        let Some((f, pace)) = best.filter(|_| !reaches_end) else {
+        let Some((f, pace, (from, copy))) = best.filter(|_| !reaches_end) else {
             break;
         };
-        // The state of the stretch up to its deadline, cooled to ambient: the next cold start.
-        for i in a..f {
+        // The state of the stretch up to its deadline, cooled to ambient: the next cold start
+        // (the deposits from the copy on laid as the stretch laid them, so the same state).
+        start = copy;
+        for i in from..f {
             start.deposit_burning(i, 0.0, s.pacing.burn(i, pace, None))?;
         }
-        laid += f - a;
+        laid += f - from;
         start.quench();
         bound.stops += 1;
         bound.at.push(f);
@@ -117,6 +138,11 @@ pub fn arc_stops_lower_bound<R: HeatRun>(
     bound.cost_builds = laid as f64 / n.max(1) as f64;
     Ok(bound)
 }
+
+/// Deposits between two copies a stretch keeps of its run: a copy costs about what a deposit's
+/// step does (the run's state copied against a solve near the arc), and the next cold start lays
+/// at most this many deposits again from the last one.
+const COPY_EVERY: usize = 16;
 
 /// How a stretch from a cold start is laid and judged.
 struct Stretch<'a> {
@@ -129,11 +155,14 @@ struct Stretch<'a> {
     drop_reach: f64,
     /// The first point where drops may be laid.
     zone: usize,
+    /// Deposits between two copies the stretch keeps of its run.
+    copy_every: usize,
 }
 
 impl Stretch<'_> {
     /// The earliest deadline of the points that break a criterion when the build is laid
-    /// without a break at `pace` from `cold` (deposit `a` next); `None` if it reaches the end.
+    /// without a break at `pace` from `cold` (deposit `a` next), with the stretch's last copy
+    /// before it (the deposit it would lay next, and the run); `None` if it reaches the end.
     fn deadline<R: HeatRun>(
         &self,
         cold: &R,
@@ -141,12 +170,17 @@ impl Stretch<'_> {
         pace: f64,
         laid: &mut usize,
         incurable: &mut Vec<usize>,
-    ) -> Result<Option<usize>, ThermalError> {
+    ) -> Result<Option<(usize, (usize, R))>, ThermalError> {
         let mut run = cold.clone();
+        let mut copy = (a, cold.clone());
         let mut earliest: Option<usize> = None;
         for j in a..self.judged.len() {
             if earliest.is_some_and(|m| j > m) {
                 break;
+            }
+            // The loop stops at the deadline at the latest, so the last copy is before it.
+            if j > a && (j - a) % self.copy_every == 0 {
+                copy = (j, run.clone());
             }
             run.deposit_burning(j, 0.0, self.s.pacing.burn(j, pace, None))?;
             *laid += 1;
@@ -164,7 +198,12 @@ impl Stretch<'_> {
                 }
             }
         }
-        Ok(earliest)
+        // A deadline before the copy (none is known to fall behind the deposit that sets it,
+        // but the argument does not need that): from the cold start again.
+        Ok(earliest.map(|f| match copy.0 <= f {
+            true => (f, copy),
+            false => (f, (a, cold.clone())),
+        }))
     }
 
     /// The last deposit before which a stop still helps point k, judged at deposit j: j for a
@@ -176,5 +215,51 @@ impl Stretch<'_> {
     /// A drop struck at `a` (in the closing zone) reads k as it strikes, cold.
     fn drop_covers(&self, a: usize, k: usize) -> bool {
         a >= self.zone && self.along[k] - self.along[a] < self.drop_reach
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::Build;
+    use planner::mesh::{LowerLoop, Part};
+    use planner::shapes::Shape;
+
+    /// A closed dome R 25 mm on the thin wall, its interpass limit low enough for many stops.
+    fn dome() -> Build {
+        let text = "[part]\nshape = \"disk\"\nradius_mm = 1.0\n[dwell]\ninterpass_max_c = 150.0\n";
+        let s = crate::scenario::Scenario::parse(text, "test", ".".as_ref()).unwrap();
+        let mut planning = s.plan_params();
+        planning.n_points = 40;
+        let mesh = Shape::Hemisphere { radius_mm: 25.0 }.mesh(2.5);
+        let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
+        Build::new(crate::pipeline::plan(&part, &planning).unwrap(), s.params())
+    }
+
+    /// The next cold start taken from a copy the stretch kept, laid on to the deadline, is the
+    /// state laid again from the stretch's own cold start: the same stops, at the same points,
+    /// for fewer deposits laid.
+    #[test]
+    fn a_cold_start_from_a_copy_is_the_one_laid_again() {
+        let b = dome();
+        let bound = |every: usize| {
+            let model = b.heat_model(&b.deposits, Vec::new());
+            let run = model.start(&b.deposits).unwrap();
+            let pacing = b.pacing();
+            let search = b.search(&pacing);
+            greedy(&search, &b.deposits, model.lead(), None, run, every).unwrap()
+        };
+        let again = bound(usize::MAX);
+        assert!(again.stops >= 3, "too few stops to tell: {:?}", again.at);
+        for every in [1, 5, COPY_EVERY] {
+            let copied = bound(every);
+            assert_eq!(
+                (copied.stops, &copied.at),
+                (again.stops, &again.at),
+                "every {every}"
+            );
+            assert_eq!(copied.incurable, again.incurable);
+            assert!(copied.cost_builds < again.cost_builds, "every {every}");
+        }
     }
 }
