@@ -144,6 +144,9 @@ fn greedy<R: HeatRun>(
 /// at most this many deposits again from the last one.
 const COPY_EVERY: usize = 16;
 
+/// A stretch's deadline and its last copy before it (the deposit the copy lays next, the run).
+type Deadline<R> = (usize, (usize, R));
+
 /// How a stretch from a cold start is laid and judged.
 struct Stretch<'a> {
     s: &'a Search<'a>,
@@ -170,7 +173,7 @@ impl Stretch<'_> {
         pace: f64,
         laid: &mut usize,
         incurable: &mut Vec<usize>,
-    ) -> Result<Option<(usize, (usize, R))>, ThermalError> {
+    ) -> Result<Option<Deadline<R>>, ThermalError> {
         let mut run = cold.clone();
         let mut copy = (a, cold.clone());
         let mut earliest: Option<usize> = None;
@@ -179,7 +182,7 @@ impl Stretch<'_> {
                 break;
             }
             // The loop stops at the deadline at the latest, so the last copy is before it.
-            if j > a && (j - a) % self.copy_every == 0 {
+            if j > a && (j - a).is_multiple_of(self.copy_every) {
                 copy = (j, run.clone());
             }
             run.deposit_burning(j, 0.0, self.s.pacing.burn(j, pace, None))?;
