@@ -225,18 +225,10 @@ impl Stretch<'_> {
 mod tests {
     use super::*;
     use crate::pipeline::Build;
-    use planner::mesh::{LowerLoop, Part};
-    use planner::shapes::Shape;
 
     /// A closed dome R 25 mm on the thin wall, its interpass limit low enough for many stops.
     fn dome() -> Build {
-        let text = "[part]\nshape = \"disk\"\nradius_mm = 1.0\n[dwell]\ninterpass_max_c = 150.0\n";
-        let s = crate::scenario::Scenario::parse(text, "test", ".".as_ref()).unwrap();
-        let mut planning = s.plan_params();
-        planning.n_points = 40;
-        let mesh = Shape::Hemisphere { radius_mm: 25.0 }.mesh(2.5);
-        let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
-        Build::new(crate::pipeline::plan(&part, &planning).unwrap(), s.params())
+        crate::pipeline::test_parts::dome(25.0, "[dwell]\ninterpass_max_c = 150.0\n")
     }
 
     /// The next cold start taken from a copy the stretch kept, laid on to the deadline, is the

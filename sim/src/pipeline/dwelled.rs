@@ -374,18 +374,10 @@ fn baselines(b: &Build, plan: &DwellPlan, ck: &mut Checkpoints<'_>) -> Result<Ba
 #[cfg(test)]
 mod tests {
     use super::*;
-    use planner::mesh::{LowerLoop, Part};
-    use planner::shapes::Shape;
 
     /// A closed dome R 20 mm on the thin wall.
     fn dome() -> Build {
-        let text = "[part]\nshape = \"disk\"\nradius_mm = 1.0\n";
-        let s = crate::scenario::Scenario::parse(text, "test", ".".as_ref()).unwrap();
-        let mut planning = s.plan_params();
-        planning.n_points = 40;
-        let mesh = Shape::Hemisphere { radius_mm: 20.0 }.mesh(2.5);
-        let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
-        Build::new(super::super::plan(&part, &planning).unwrap(), s.params())
+        super::super::test_parts::dome(20.0, "")
     }
 
     /// Told to stop, the yardstick ends before its first revolution with `Stopped`, where left

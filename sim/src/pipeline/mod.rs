@@ -64,6 +64,26 @@ pub mod risk;
 pub mod skeleton;
 pub mod twin;
 
+/// Small parts the engine's unit tests plan and heat.
+#[cfg(test)]
+pub(crate) mod test_parts {
+    use super::Build;
+    use planner::mesh::{LowerLoop, Part};
+    use planner::shapes::Shape;
+
+    /// A closed dome of radius `radius_mm` planned with CTPP (40 points a layer) under the
+    /// scenario tables `tables` (TOML), on the thin wall.
+    pub(crate) fn dome(radius_mm: f64, tables: &str) -> Build {
+        let text = format!("[part]\nshape = \"disk\"\nradius_mm = 1.0\n{tables}");
+        let s = crate::scenario::Scenario::parse(&text, "test", ".".as_ref()).unwrap();
+        let mut planning = s.plan_params();
+        planning.n_points = 40;
+        let mesh = Shape::Hemisphere { radius_mm }.mesh(2.5);
+        let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
+        Build::new(super::plan(&part, &planning).unwrap(), s.params())
+    }
+}
+
 pub use params::Params;
 
 use beads::Beads;

@@ -127,19 +127,11 @@ impl<'a> Pacing<'a> {
 #[cfg(test)]
 mod tests {
     use super::super::Build;
-    use planner::mesh::{LowerLoop, Part};
-    use planner::shapes::Shape;
     use thermal::schedule::DropPart;
 
     /// A closed dome R 20 mm planned with CTPP under `process` (a `[process]` table's lines).
     fn dome(process: &str) -> Build {
-        let text = format!("[part]\nshape = \"disk\"\nradius_mm = 1.0\n[process]\n{process}\n");
-        let s = crate::scenario::Scenario::parse(&text, "test", ".".as_ref()).unwrap();
-        let mut planning = s.plan_params();
-        planning.n_points = 40;
-        let mesh = Shape::Hemisphere { radius_mm: 20.0 }.mesh(2.5);
-        let part = Part::from_mesh(mesh, LowerLoop::default()).unwrap();
-        Build::new(super::super::plan(&part, &planning).unwrap(), s.params())
+        super::super::test_parts::dome(20.0, &format!("[process]\n{process}\n"))
     }
 
     /// At the planned pace a point burns as the schedule says (the run takes the schedule's own
