@@ -119,9 +119,9 @@ fn confidence_json(
 /// R 400 dome's plan, still searching at 30.
 const YARDSTICK_BUILDS: f64 = 9.0;
 
-/// The arc-stop bound's cost in one-build times: each deposit laid about twice (a stretch found,
-/// then laid again to its deadline; `pipeline::bound`), 2.0 builds measured on the R 100 dome.
-const BOUND_BUILDS: f64 = 2.0;
+/// The arc-stop bound's cost in one-build times: each deposit laid about once, and a stretch's
+/// last few again from its copy (`pipeline::bound`): 1.13 builds laid on the demo dome.
+const BOUND_BUILDS: f64 = 1.2;
 
 /// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
 /// the cache's cooled copies: about four models at once) and, beside it, the revolution-dwell
