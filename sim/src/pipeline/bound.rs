@@ -175,7 +175,7 @@ impl Stretch<'_> {
         incurable: &mut Vec<usize>,
     ) -> Result<Option<Deadline<R>>, ThermalError> {
         let mut run = cold.clone();
-        let mut copy = (a, cold.clone());
+        let mut copy: Option<(usize, R)> = None;
         let mut earliest: Option<usize> = None;
         for j in a..self.judged.len() {
             if earliest.is_some_and(|m| j > m) {
@@ -183,7 +183,7 @@ impl Stretch<'_> {
             }
             // The loop stops at the deadline at the latest, so the last copy is before it.
             if j > a && (j - a).is_multiple_of(self.copy_every) {
-                copy = (j, run.clone());
+                copy = Some((j, run.clone()));
             }
             run.deposit_burning(j, 0.0, self.s.pacing.burn(j, pace, None))?;
             *laid += 1;
@@ -201,11 +201,11 @@ impl Stretch<'_> {
                 }
             }
         }
-        // A deadline before the copy (none is known to fall behind the deposit that sets it,
-        // but the argument does not need that): from the cold start again.
-        Ok(earliest.map(|f| match copy.0 <= f {
-            true => (f, copy),
-            false => (f, (a, cold.clone())),
+        // No copy yet, or a deadline before it (none is known to fall behind the deposit that
+        // sets it, but the argument does not need that): from the cold start again.
+        Ok(earliest.map(|f| match copy {
+            Some(c) if c.0 <= f => (f, c),
+            _ => (f, (a, cold.clone())),
         }))
     }
 

@@ -394,7 +394,7 @@ mod tests {
     }
 
     /// The work beside the yardstick failing is what comes back (the yardstick stopped by it
-    /// is not reported in its place), and nothing is kept as the yardstick's.
+    /// is not reported in its place).
     #[test]
     fn a_failure_beside_the_yardstick_is_what_comes_back() {
         let b = dome();
