@@ -250,17 +250,7 @@ fn check(
 /// starting over, and the dwell it settles on gives the state a fresh run with that dwell gives
 /// (the same bits on the thin wall; the voxel model's last partial step may round differently).
 fn cooled<R: HeatRun>(base: &R, cache: &mut Vec<(f64, R)>, d: f64) -> Result<R, ThermalError> {
-    let boundary = match base.cooling_steps() {
-        CoolingSteps::Doubling { max } => {
-            let (mut boundary, mut dt) = (0.0, 1.0f64);
-            while boundary + dt <= d + 1e-9 {
-                boundary += dt;
-                dt = (dt * 2.0).min(max);
-            }
-            boundary
-        }
-        CoolingSteps::Fixed { step } => ((d + 1e-9) / step).floor() * step,
-    };
+    let boundary = last_whole_step(base.cooling_steps(), d);
     let (from, mut run) = cache
         .iter()
         .filter(|c| c.0 <= boundary)
@@ -272,6 +262,38 @@ fn cooled<R: HeatRun>(base: &R, cache: &mut Vec<(f64, R)>, d: f64) -> Result<R, 
     }
     run.cool(d - boundary)?;
     Ok(run)
+}
+
+/// Where the last whole step of a cooling of `d` seconds in `steps` ends, s: a cooling of any
+/// longer dwell passes through the same state there.
+fn last_whole_step(steps: CoolingSteps, d: f64) -> f64 {
+    match steps {
+        CoolingSteps::Doubling { max } => {
+            let (mut boundary, mut dt) = (0.0, 1.0f64);
+            while boundary + dt <= d + 1e-9 {
+                boundary += dt;
+                dt = (dt * 2.0).min(max);
+            }
+            boundary
+        }
+        CoolingSteps::Fixed { step } => ((d + 1e-9) / step).floor() * step,
+    }
+}
+
+/// Drop from `cache` the cooled states no later try of a dwell search can start from, after a
+/// try of dwell `d` that passed (later tries are shorter) or failed (later tries are longer:
+/// of the states at or below `d`, only the longest is kept).
+fn keep_between<R>(cache: &mut Vec<(f64, R)>, d: f64, passed: bool) {
+    if passed {
+        cache.retain(|c| c.0 <= d);
+    } else {
+        let floor = cache
+            .iter()
+            .map(|c| c.0)
+            .filter(|&k| k <= d)
+            .fold(0.0, f64::max);
+        cache.retain(|c| c.0 >= floor);
+    }
 }
 
 /// Per deposit, the points whose preheat is read during its arc, and itself (its pool).
@@ -390,8 +412,8 @@ fn point_dwells<R: HeatRun>(
                 x = t;
             }
             None => {
-                let mut t = x.clone();
-                s.lay(&mut t, i, s.dwell.max_dwell_s, pace)?;
+                let mut t = cooled(&x, &mut cache, s.dwell.max_dwell_s)?;
+                s.lay(&mut t, i, 0.0, pace)?;
                 dwells.push((i, s.dwell.max_dwell_s, why));
                 unresolved.extend(
                     judged[i]
@@ -690,7 +712,7 @@ impl<R: HeatRun> Planner<'_, R> {
             tried.push(self.pace);
         }
         for k in tried {
-            let trial = segment(k).try_dwell(&self.run, 0.0, &mut self.simulated)?;
+            let trial = segment(k).trial(self.run.clone(), &mut self.simulated)?;
             if trial.1.is_none() {
                 let start = self.run.clone();
                 return self.keep(stretch, k, trial.0, None, start);
@@ -702,12 +724,18 @@ impl<R: HeatRun> Planner<'_, R> {
         let unrested = unrested.expect("a risky trial at the planned pace");
         let why = unrested.1.expect("a risky trial").1;
         let slowest = s.pacing.slowest(stretch.clone());
+        // The dwell remedy first: its cost bounds what slowing down may cost.
+        let dwelled = self.dwells(segment(1.0), &unrested, why)?;
         let mut remedies = Vec::new();
         // Slowing down: the smallest of a few paces up to the slowest that keeps the revolution
         // safe with the arc on. Safety is not monotone in the pace (slow enough, the arc heats
         // the metal ahead of it), so the paces are tried in turn, not bisected. Only where the
         // power falls with the wire feed: at a fixed power slowing down puts more heat into a
         // revolution at the same rate, and measured it never made one safe (docs/PHYSICS.md).
+        // A pace whose build time, known before it is laid, exceeds the dwell remedy's that
+        // leaves no point at risk is not laid: it could not be the cheapest (nor could a slower
+        // one, which costs more), and laying it again lays the stretch before with its dwells,
+        // whose cooling is most of a large part's search.
         for k in PACES
             .iter()
             .copied()
@@ -716,6 +744,9 @@ impl<R: HeatRun> Planner<'_, R> {
         {
             if k <= 1.0 || failed.contains(&k) || !s.pacing.cools(stretch.clone(), k) {
                 continue;
+            }
+            if dwelled.unresolved.is_empty() && self.slowing_cost_s(segment(k)) > dwelled.cost_s {
+                break;
             }
             match self.slowed(segment(k))? {
                 Some((x, cost_s, before)) => {
@@ -732,7 +763,7 @@ impl<R: HeatRun> Planner<'_, R> {
                 None => failed.push(k),
             }
         }
-        remedies.push(self.dwells(segment(1.0), &unrested, why)?);
+        remedies.push(dwelled);
         // The cheapest that keeps every point safe, else the one that leaves fewest at risk.
         let best = remedies
             .into_iter()
@@ -779,17 +810,20 @@ impl<R: HeatRun> Planner<'_, R> {
             pace: 1.0,
         };
         let start = self.run.clone();
-        let unrested = segment.try_dwell(&start, 0.0, &mut self.simulated)?;
+        let unrested = segment.trial(start.clone(), &mut self.simulated)?;
         let Some((_, why)) = unrested.1 else {
             return self.keep(stretch, 1.0, unrested.0, None, start);
         };
         let guess = self.last_dwell;
-        let smallest = segment.smallest_dwell(&start, &unrested, guess, &mut self.simulated)?;
+        let mut cache = Vec::new();
+        let smallest =
+            segment.smallest_dwell(&start, &unrested, guess, &mut cache, &mut self.simulated)?;
         let (d, x) = match smallest {
             Some(pass) => pass,
             None => {
                 let max = s.dwell.max_dwell_s;
-                (max, segment.try_dwell(&start, max, &mut self.simulated)?.0)
+                let cool = cooled(&start, &mut cache, max)?;
+                (max, segment.trial(cool, &mut self.simulated)?.0)
             }
         };
         self.plan.cooling.dwell_s[rev.dwell_at] = d;
@@ -816,15 +850,12 @@ impl<R: HeatRun> Planner<'_, R> {
     /// the build time it adds, or `None` if a point of either revolution is at risk.
     fn slowed(&mut self, segment: Segment) -> Result<Option<(R, f64, R)>, ThermalError> {
         let (s, k) = (self.s, segment.pace);
-        let stretch = segment.rev.dwell_at..segment.seg_end;
-        let mut cost_s = s.pacing.extra_time_s(stretch, 1.0, k);
+        let cost_s = self.slowing_cost_s(segment);
         let start = match &self.before {
             Some((run, before)) => {
                 let mut x = run.clone();
                 for i in before.clone() {
-                    let planned = self.plan.cooling.pace[i];
-                    let pace = planned.max(k);
-                    cost_s += s.pacing.extra_time_s(i..i + 1, planned, pace);
+                    let pace = self.plan.cooling.pace[i].max(k);
                     s.lay(&mut x, i, self.plan.cooling.dwell_s[i], pace)?;
                 }
                 self.simulated += before.len();
@@ -832,13 +863,28 @@ impl<R: HeatRun> Planner<'_, R> {
             }
             None => self.run.clone(),
         };
-        let (x, risk, _) = segment.try_dwell(&start, 0.0, &mut self.simulated)?;
+        let (x, risk, _) = segment.trial(start.clone(), &mut self.simulated)?;
         let before_safe = self.revs[..]
             .iter()
             .rev()
             .find(|rv| rv.end <= segment.rev.first)
             .is_none_or(|rv| check(s, &x, rv.first..rv.end, s.dwell.margin_k).0.is_none());
         Ok((risk.is_none() && before_safe).then_some((x, cost_s, start)))
+    }
+
+    /// The build time [`Planner::slowed`] adds at `segment`'s pace: its stretch and the stretch
+    /// before it laid slower, s (known before either is laid).
+    fn slowing_cost_s(&self, segment: Segment) -> f64 {
+        let (s, k) = (self.s, segment.pace);
+        let stretch = segment.rev.dwell_at..segment.seg_end;
+        let mut cost_s = s.pacing.extra_time_s(stretch, 1.0, k);
+        if let Some((_, before)) = &self.before {
+            for i in before.clone() {
+                let planned = self.plan.cooling.pace[i];
+                cost_s += s.pacing.extra_time_s(i..i + 1, planned, planned.max(k));
+            }
+        }
+        cost_s
     }
 
     /// Keep `run`, the stretch laid at `pace` (up to its first risky point, or whole) from
@@ -894,7 +940,13 @@ impl<R: HeatRun> Planner<'_, R> {
         let point_cost = point.iter().map(|p| p.1).sum::<f64>() + w * point.len() as f64;
         let whole = if w > 0.0 || !point_unresolved.is_empty() {
             let guess = self.last_dwell;
-            segment.smallest_dwell(&self.run, unrested, guess, &mut self.simulated)?
+            segment.smallest_dwell(
+                &self.run,
+                unrested,
+                guess,
+                &mut Vec::new(),
+                &mut self.simulated,
+            )?
         } else {
             None
         };
@@ -1057,23 +1109,13 @@ struct Segment<'a> {
 }
 
 impl Segment<'_> {
-    /// Lay the stretch after a dwell of `d` from `start`, stopping at the first risky point of the
-    /// revolution: failing trials are cheap.
-    fn try_dwell<R: HeatRun>(
-        &self,
-        start: &R,
-        d: f64,
-        simulated: &mut usize,
-    ) -> Result<Trial<R>, ThermalError> {
+    /// Lay the stretch on `x`, the run at its dwell point with any dwell before it already cooled
+    /// (laying a deposit after a dwell cools, then lays it), stopping at the first risky point of
+    /// the revolution: failing trials are cheap.
+    fn trial<R: HeatRun>(&self, mut x: R, simulated: &mut usize) -> Result<Trial<R>, ThermalError> {
         let (s, rev) = (self.s, self.rev);
-        let mut x = start.clone();
         for i in rev.dwell_at..self.seg_end {
-            s.lay(
-                &mut x,
-                i,
-                if i == rev.dwell_at { d } else { 0.0 },
-                self.pace,
-            )?;
+            s.lay(&mut x, i, 0.0, self.pace)?;
             *simulated += 1;
             let risky = self.judged[i].iter().any(|&k| {
                 k >= rev.first
@@ -1100,18 +1142,27 @@ impl Segment<'_> {
         start: &R,
         unrested: &Trial<R>,
         guess: f64,
+        cache: &mut Vec<(f64, R)>,
         simulated: &mut usize,
     ) -> Result<Option<(f64, R)>, ThermalError> {
         let (x0, _, hot0) = unrested;
         let (aim, hot0) = (self.s.aim_k(x0, self.rev.first..self.rev.end), *hot0);
+        // Each try cools on from the longest cooled state kept below its dwell ([`cooled`]):
+        // the dwell's cooling is what the search costs on a large part, and the tries' dwells
+        // overlap. Kept: the states a later try can start from, which lie between the longest
+        // failing dwell and the shortest passing one ([`shortest_dwell`] tries only between);
+        // the caller may cool on from them to the longest dwell when none passes.
         shortest_dwell(
             self.s,
             if guess > 0.0 { guess } else { 10.0 },
             hot0,
             aim,
             |d| {
-                let (x, risk, hot) = self.try_dwell(start, d, simulated)?;
-                Ok((x, risk.is_none(), hot))
+                let x = cooled(start, cache, d)?;
+                let (x, risk, hot) = self.trial(x, simulated)?;
+                let safe = risk.is_none();
+                keep_between(cache, d, safe);
+                Ok((x, safe, hot))
             },
         )
     }
@@ -1384,5 +1435,55 @@ mod tests {
             assert!((on.now() - once.now()).abs() < 1e-9);
         }
         assert!(cache.len() >= 4);
+    }
+
+    /// The cooled states a dwell search drops are none that a later try of it would start from:
+    /// searches of cooling slow and fast, aims near and far, first guesses short and long.
+    #[test]
+    fn a_dwell_search_keeps_the_cooled_states_its_later_tries_start_from() {
+        let b = crate::pipeline::test_parts::dome(30.0, "");
+        let pacing = b.pacing();
+        let s = b.search(&pacing);
+        let steps = thermal::CoolingSteps::Doubling { max: 30.0 };
+        let ambient = s.ambient_k;
+        let (mut pruned_any, mut searches) = (false, 0);
+        for tau in [20.0, 90.0, 400.0] {
+            for aim_above_k in [5.0, 40.0, 150.0] {
+                for guess in [10.0, 45.0, 300.0] {
+                    let hot = |d: f64| ambient + 400.0 * (-d / tau).exp();
+                    let aim = ambient + aim_above_k;
+                    // Every state a try cooled to, and those the search kept.
+                    let (mut all, mut kept) = (Vec::<f64>::new(), Vec::<(f64, ())>::new());
+                    let start = |keys: &mut dyn Iterator<Item = f64>, d: f64| {
+                        let b = super::last_whole_step(steps, d);
+                        keys.filter(|&k| k <= b).fold(0.0, f64::max)
+                    };
+                    let found = super::shortest_dwell(&s, guess, hot(0.0), aim, |d| {
+                        let from = start(&mut all.iter().copied(), d);
+                        assert_eq!(
+                            start(&mut kept.iter().map(|k| k.0), d),
+                            from,
+                            "tau {tau} s, aim {aim_above_k} K, guess {guess} s: the try of {d} s"
+                        );
+                        let b = super::last_whole_step(steps, d);
+                        if b > from {
+                            all.push(b);
+                            kept.push((b, ()));
+                        }
+                        let safe = hot(d) <= aim;
+                        super::keep_between(&mut kept, d, safe);
+                        Ok(((), safe, hot(d)))
+                    })
+                    .unwrap();
+                    pruned_any |= kept.len() < all.len();
+                    searches += usize::from(found.is_some());
+                }
+            }
+        }
+        assert!(
+            pruned_any,
+            "no search dropped a state: the test shows nothing"
+        );
+        assert!(searches > 10, "too few searches found a dwell ({searches})");
     }
 }
