@@ -4,12 +4,23 @@
 # and without its cost cut, one run at a time; one row each into scaling.csv beside this file:
 #   model,mode,radius_mm,bead_m,deposits,wall_s,peak_mb
 # wall_s is the whole command's (plan, heat, files), peak_mb its peak resident memory.
-# Usage: [MODELS="thin-wall voxel"] [MODES="reference cut"] [KEEP=DIR] docs/scaling/measure.sh [RADIUS_MM ...]
-#        (default 50 100 200; rows are appended)
+# COMMAND=dwell runs `waamtwin dwell --no-baselines` instead (the dwell plan: the search, its
+# yardstick and bound, the runs without and with the dwells); its rows' mode is "dwell-" and the
+# mode they were run with.
+# Usage: [MODELS="thin-wall voxel"] [MODES="reference cut"] [COMMAND=simulate|dwell] [KEEP=DIR]
+#        docs/scaling/measure.sh [RADIUS_MM ...]   (default 50 100 200; rows are appended;
+#        the binary is $CARGO_TARGET_DIR's, else target/'s)
 # Then: cargo run --release -p sim --example scaling_plot -- docs/scaling/scaling.csv docs/img/scaling.png
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 cargo build --release -p sim --bin waamtwin
+bin="${CARGO_TARGET_DIR:-target}/release/waamtwin"
+command="${COMMAND:-simulate}"
+case "$command" in
+  simulate) extra=() ;;
+  dwell) extra=(--no-baselines) ;;
+  *) echo "COMMAND=$command: expected simulate or dwell" >&2; exit 2 ;;
+esac
 radii=("$@")
 [ $# -eq 0 ] && radii=(50 100 200)
 work=$(mktemp -d)
@@ -39,8 +50,9 @@ report = false
 frames = 0
 TOML
     rm -rf "$work/out"
-    /usr/bin/time -f "%e %M" -o "$work/time" target/release/waamtwin simulate "$work/s.toml" \
+    /usr/bin/time -f "%e %M" -o "$work/time" "$bin" "$command" "$work/s.toml" "${extra[@]}" \
       -o "$work/out" >"$work/log" 2>&1 || { cat "$work/log"; exit 1; }
+    [ "$command" = dwell ] && mode="dwell-$mode"
     read -r wall kb <"$work/time"
     stats=$(python3 -c "
 import csv, json, math, sys
