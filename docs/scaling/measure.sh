@@ -52,7 +52,7 @@ TOML
     rm -rf "$work/out"
     /usr/bin/time -f "%e %M" -o "$work/time" "$bin" "$command" "$work/s.toml" "${extra[@]}" \
       -o "$work/out" >"$work/log" 2>&1 || { cat "$work/log"; exit 1; }
-    [ "$command" = dwell ] && mode="dwell-$mode"
+    if [ "$command" = dwell ]; then mode="dwell-$mode"; fi
     read -r wall kb <"$work/time"
     stats=$(python3 -c "
 import csv, json, math, sys
