@@ -20,27 +20,39 @@ fn main() -> ExitCode {
     };
     match run(&path) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
+        Err(Failure::Input(e)) => {
             eprintln!("{path}: {e}");
             ExitCode::from(2)
+        }
+        Err(Failure::Numerical(e)) => {
+            eprintln!("{path}: {e}");
+            ExitCode::from(1)
         }
     }
 }
 
-fn run(path: &str) -> Result<(), String> {
-    let s = Scenario::load(path.as_ref()).map_err(|e| e.to_string())?;
-    let part = sim::part::load_part(&s.part).map_err(|e| e.to_string())?;
-    let cut = sim::commands::plan::build(&s, &part).map_err(|e| e.to_string())?;
+/// Bad input (exit 2), or a heat run that failed on good input (exit 1).
+enum Failure {
+    Input(String),
+    Numerical(String),
+}
+
+fn run(path: &str) -> Result<(), Failure> {
+    let input = |e: &dyn std::fmt::Display| Failure::Input(e.to_string());
+    let s = Scenario::load(path.as_ref()).map_err(|e| input(&e))?;
+    let part = sim::part::load_part(&s.part).map_err(|e| input(&e))?;
+    let cut = sim::commands::plan::build(&s, &part).map_err(|e| input(&e))?;
     if !cut.params.thermal.local_steps {
-        return Err(
-            "[thermal] local_steps = false: the plan must be searched with the cost cut".into(),
-        );
+        let why = "[thermal] local_steps = false: the plan must be searched with the cost cut";
+        return Err(Failure::Input(why.into()));
     }
     let mut reference = cut.clone();
     reference.params.thermal.local_steps = false;
 
     let t = Instant::now();
-    let plan = cut.plan_dwells().map_err(|e| e.to_string())?;
+    let plan = cut
+        .plan_dwells()
+        .map_err(|e| Failure::Numerical(format!("the search: {e}")))?;
     println!(
         "plan: {} dwells, {:.0} s in all, searched in {:.1} s",
         plan.cooling.dwell_s.iter().filter(|&&d| d > 0.0).count(),
@@ -50,9 +62,9 @@ fn run(path: &str) -> Result<(), String> {
     let heat = |b: &Build, name: &str| {
         let t = Instant::now();
         let sim = b.simulate_cooled(&plan.cooling, 0, Vec::new());
-        let sim = sim.map_err(|e| format!("{name}: {e}"))?;
+        let sim = sim.map_err(|e| Failure::Numerical(format!("{name}: {e}")))?;
         println!("{name}: heated in {:.1} s", t.elapsed().as_secs_f64());
-        Ok::<Simulation, String>(sim)
+        Ok::<Simulation, Failure>(sim)
     };
     let on_cut = heat(&cut, "cut (local steps)")?;
     let on_reference = heat(&reference, "reference (every node every step)")?;
@@ -68,7 +80,8 @@ fn run(path: &str) -> Result<(), String> {
         .collect();
     shares.sort_by(f64::total_cmp);
     let Some(&worst) = shares.last() else {
-        return Err("no point's preheat rises 10 K: nothing to compare".into());
+        let why = "no point's preheat rises 10 K: nothing to compare";
+        return Err(Failure::Input(why.into()));
     };
     println!(
         "preheats: within {:.2} % of the rise (median {:.3} %, {} points compared)",
