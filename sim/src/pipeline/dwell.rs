@@ -320,13 +320,13 @@ type Trial<R> = (R, Option<(usize, Risk)>, f64);
 
 /// Point dwells over the deposits of `range` laid at `pace` from `start`: each deposit is tried
 /// without a dwell, and given the shortest one that keeps the points judged at it safe when it is
-/// not.
+/// not. `last`: the last point dwell found (0 for none), where the next search starts.
 fn point_dwells<R: HeatRun>(
     s: &Search,
     judged: &[Vec<usize>],
     start: &R,
-    range: std::ops::Range<usize>,
-    pace: f64,
+    (range, pace): (std::ops::Range<usize>, f64),
+    last: &mut f64,
     simulated: &mut f64,
 ) -> Result<PointDwells<R>, ThermalError> {
     let mut x = start.clone();
@@ -380,14 +380,24 @@ fn point_dwells<R: HeatRun>(
         let mut trial = x.clone();
         s.lay(&mut trial, i, 0.0, pace)?;
         *simulated += 1.0;
-        let (risk, hot0) = risk_at(&trial, i);
-        let Some(why) = risk else {
+        let Some(why) = risk_at(&trial, i).0 else {
             x = trial;
             continue;
         };
         let mut cache = Vec::new();
         let aim = s.aim_k(&trial, judged[i].iter().copied());
-        let pass = shortest_dwell(s, 5.0, hot0, aim, |d| {
+        // A point's dwell is near its neighbour's, most often: they lie on metal laid alike.
+        let guess = match *last > 0.0 {
+            true => Guess {
+                dwell_s: *last,
+                warm: true,
+            },
+            false => Guess {
+                dwell_s: 5.0,
+                warm: false,
+            },
+        };
+        let pass = shortest_dwell(s, guess, aim, |d| {
             let mut t = cooled(&x, &mut cache, d)?;
             s.lay(&mut t, i, 0.0, pace)?;
             *simulated += 1.0;
@@ -409,6 +419,7 @@ fn point_dwells<R: HeatRun>(
                     false => (d, t),
                 };
                 dwells.push((i, d, why));
+                *last = d;
                 x = t;
             }
             None => {
@@ -544,6 +555,7 @@ pub fn plan_dwells_kept<R: HeatRun + Serialize + DeserializeOwned>(
         pace: 1.0,
         before: None,
         last_dwell: 0.0,
+        last_point_dwell: 0.0,
         simulated: 0,
     };
     // The closing zone starts earlier where a revolution near the closing point (within
@@ -604,6 +616,7 @@ struct Kept<P, R, B> {
     pace: f64,
     before: B,
     last_dwell: f64,
+    last_point_dwell: f64,
     simulated: usize,
 }
 
@@ -628,7 +641,9 @@ struct Planner<'a, R> {
     /// The run before the last stretch was laid, and that stretch: slowing a revolution down
     /// lays it again.
     before: Before<R>,
+    /// The last dwell found before a revolution, and inside one: where the next searches start.
     last_dwell: f64,
+    last_point_dwell: f64,
     simulated: usize,
 }
 
@@ -644,6 +659,7 @@ impl<R: HeatRun> Planner<'_, R> {
             pace: self.pace,
             before: &self.before,
             last_dwell: self.last_dwell,
+            last_point_dwell: self.last_point_dwell,
             simulated: self.simulated,
         }
     }
@@ -656,6 +672,7 @@ impl<R: HeatRun> Planner<'_, R> {
         self.pace = k.pace;
         self.before = k.before;
         self.last_dwell = k.last_dwell;
+        self.last_point_dwell = k.last_point_dwell;
         self.simulated = k.simulated;
     }
 
@@ -932,8 +949,8 @@ impl<R: HeatRun> Planner<'_, R> {
             s,
             self.judged,
             &self.run,
-            rev.dwell_at..seg_end,
-            segment.pace,
+            (rev.dwell_at..seg_end, segment.pace),
+            &mut self.last_point_dwell,
             &mut point_sim,
         )?;
         self.simulated += point_sim as usize;
@@ -1145,46 +1162,67 @@ impl Segment<'_> {
         cache: &mut Vec<(f64, R)>,
         simulated: &mut usize,
     ) -> Result<Option<(f64, R)>, ThermalError> {
-        let (x0, _, hot0) = unrested;
-        let (aim, hot0) = (self.s.aim_k(x0, self.rev.first..self.rev.end), *hot0);
+        let aim = self.s.aim_k(&unrested.0, self.rev.first..self.rev.end);
         // Each try cools on from the longest cooled state kept below its dwell ([`cooled`]):
         // the dwell's cooling is what the search costs on a large part, and the tries' dwells
         // overlap. Kept: the states a later try can start from, which lie between the longest
         // failing dwell and the shortest passing one ([`shortest_dwell`] tries only between);
         // the caller may cool on from them to the longest dwell when none passes.
-        shortest_dwell(
-            self.s,
-            if guess > 0.0 { guess } else { 10.0 },
-            hot0,
-            aim,
-            |d| {
-                let x = cooled(start, cache, d)?;
-                let (x, risk, hot) = self.trial(x, simulated)?;
-                let safe = risk.is_none();
-                keep_between(cache, d, safe);
-                Ok((x, safe, hot))
+        let guess = match guess > 0.0 {
+            true => Guess {
+                dwell_s: guess,
+                warm: true,
             },
-        )
+            false => Guess {
+                dwell_s: 10.0,
+                warm: false,
+            },
+        };
+        shortest_dwell(self.s, guess, aim, |d| {
+            let x = cooled(start, cache, d)?;
+            let (x, risk, hot) = self.trial(x, simulated)?;
+            let safe = risk.is_none();
+            keep_between(cache, d, safe);
+            Ok((x, safe, hot))
+        })
     }
 }
 
+/// Where a dwell search starts: its first try, and whether that is a dwell found for the point
+/// or revolution before (warm: the dwell wanted is likely near it) or a plain default.
+#[derive(Debug, Clone, Copy)]
+struct Guess {
+    dwell_s: f64,
+    warm: bool,
+}
+
+/// How close the shortest safe dwell is found: the bracket (longest failing try, shortest
+/// passing one) closes to 10 % of the passing dwell, or half a second.
+fn tolerance(d: f64) -> f64 {
+    (0.1 * d).max(0.5)
+}
+
 /// The shortest dwell that `attempt` (the run after a dwell, whether it is safe, its hottest
-/// preheat) finds safe, starting from `guess`: cooling of the excess above ambient is close to
+/// preheat) finds safe, from `guess` on: cooling of the excess above ambient is close to
 /// exponential, so two tries give its time constant and the dwell that brings the preheat to
-/// `target` (the preheat that cures the criterion broken, [`Search::aim_k`]); then
-/// the bracket closes to 10 %. None shorter than `min_dwell_s` is tried (a dwell is an arc stop
+/// `target` (the preheat that cures the criterion broken, [`Search::aim_k`]); the bracket then
+/// closes to [`tolerance`]. None shorter than `min_dwell_s` is tried (a dwell is an arc stop
 /// and a restart: one that cools for a fraction of a second buys nothing). `None` if even the
 /// longest dwell fails.
+///
+/// The preheat without a dwell is not fitted: a short dwell may raise it (the heat of metal just
+/// laid soaks into the metal beneath the next points), so it lies off the decay. Each try cools
+/// for its whole dwell, the cost of a search on a large part: a warm guess that fails is first
+/// grown by a quarter, not doubled, and a pass with no fail below it is followed by the try
+/// that closes the bracket if it fails.
 fn shortest_dwell<R>(
     s: &Search,
-    guess: f64,
-    hot0: f64,
+    guess: Guess,
     target: f64,
     mut attempt: impl FnMut(f64) -> Result<(R, bool, f64), ThermalError>,
 ) -> Result<Option<(f64, R)>, ThermalError> {
-    let ambient = s.ambient_k;
-    let mut tries = vec![(0.0, hot0)];
-    let mut d = guess;
+    let mut tries = Vec::new();
+    let mut d = guess.dwell_s;
     let (mut fail, mut best): (f64, Option<(f64, R)>) = (0.0, None);
     let shortest = s.dwell.min_dwell_s.min(s.dwell.max_dwell_s);
     for _ in 0..MAX_TRIES {
@@ -1192,52 +1230,61 @@ fn shortest_dwell<R>(
         let (x, safe, hot) = attempt(d)?;
         tries.push((d, hot));
         if safe {
-            // Within 10 % of the bracket, or at the shortest dwell allowed.
-            let close = d - fail <= (0.1 * d).max(0.5) || d <= shortest;
+            let close = d - fail <= tolerance(d) || d <= shortest;
             best = Some((d, x));
             if close {
                 break;
             }
         } else {
             fail = fail.max(d);
-            if d >= s.dwell.max_dwell_s {
+            let closed = best.as_ref().is_some_and(|b| b.0 - fail <= tolerance(b.0));
+            if closed || d >= s.dwell.max_dwell_s {
                 break;
             }
         }
-        d = next_dwell(&tries, fail, best.as_ref().map(|b| b.0), ambient, target);
+        let bracket = Bracket {
+            fail,
+            pass: best.as_ref().map(|b| b.0),
+        };
+        d = next_dwell(&tries, bracket, s.ambient_k, target, guess.warm);
     }
     Ok(best)
 }
 
-/// The next dwell to try: from the exponential fit of the last two tries (T − T_a ∝ e^{−d/τ}),
-/// kept inside the bracket (largest failing, smallest passing); bisection when the fit fails.
-fn next_dwell(
-    tries: &[(f64, f64)],
+/// A dwell search's bracket: its longest failing try (0 before one fails) and its shortest
+/// passing one.
+#[derive(Debug, Clone, Copy)]
+struct Bracket {
     fail: f64,
     pass: Option<f64>,
-    ambient: f64,
-    target: f64,
-) -> f64 {
+}
+
+/// The next dwell to try, from the tries so far (dwell, hottest preheat): the exponential fit of
+/// the last two (T − T_a ∝ e^{−d/τ}) kept inside the bracket, and no nearer its passing end than
+/// the try that closes it; else the bracket halved, or, with nothing below the pass, the try that
+/// closes it; else, with no pass yet, the longest failure grown (by a quarter after a `warm`
+/// first guess, else doubled).
+fn next_dwell(tries: &[(f64, f64)], b: Bracket, ambient: f64, target: f64, warm: bool) -> f64 {
     let n = tries.len();
-    let guess = if n >= 2 {
+    let fit = if n >= 2 {
         let ((d0, t0), (d1, t1)) = (tries[n - 2], tries[n - 1]);
         let (e0, e1, et) = (t0 - ambient, t1 - ambient, target - ambient);
-        if e0 > 0.0 && e1 > 0.0 && et > 0.0 && e1 < e0 && d1 != d0 {
-            let tau = (d1 - d0) / (e0 / e1).ln();
-            Some(d1 + tau * (e1 / et).ln())
-        } else {
-            None
-        }
+        // τ > 0: the later of the two dwells left the metal cooler (in either order).
+        let tau = (d1 - d0) / (e0 / e1).ln();
+        (e0 > 0.0 && e1 > 0.0 && et > 0.0 && tau > 0.0 && tau.is_finite())
+            .then(|| d1 + tau * (e1 / et).ln())
     } else {
         None
     };
-    match (guess, pass) {
-        (Some(g), Some(p)) if g > fail && g < p => g,
-        // No pass yet: trials stop at their first risky point, so the fit sees only a little of
-        // the excess; grow at least geometrically.
-        (Some(g), None) => (g * 1.05).max(1.5 * fail),
-        (_, Some(p)) => 0.5 * (fail + p),
-        _ => (2.0 * fail).max(10.0),
+    match (fit, b.pass) {
+        (Some(g), Some(p)) if g > b.fail && g < p => g.min(p - 0.999 * tolerance(p)),
+        (_, Some(p)) if b.fail > 0.0 => 0.5 * (b.fail + p),
+        (_, Some(p)) => p - 0.999 * tolerance(p),
+        // No pass yet: a revolution's trials stop at their first risky point, so the fit sees
+        // only a little of the excess; grow at least geometrically.
+        (Some(g), None) => (g * 1.05).max(1.5 * b.fail),
+        (None, None) if warm && n == 1 => 1.25 * b.fail,
+        (None, None) => (2.0 * b.fail).max(10.0),
     }
 }
 
@@ -1449,7 +1496,11 @@ mod tests {
         let (mut pruned_any, mut searches) = (false, 0);
         for tau in [20.0, 90.0, 400.0] {
             for aim_above_k in [5.0, 40.0, 150.0] {
-                for guess in [10.0, 45.0, 300.0] {
+                for (guess, warm) in [(10.0, false), (45.0, true), (300.0, false), (300.0, true)] {
+                    let guess = super::Guess {
+                        dwell_s: guess,
+                        warm,
+                    };
                     let hot = |d: f64| ambient + 400.0 * (-d / tau).exp();
                     let aim = ambient + aim_above_k;
                     // Every state a try cooled to, and those the search kept.
@@ -1458,12 +1509,12 @@ mod tests {
                         let b = super::last_whole_step(steps, d);
                         keys.filter(|&k| k <= b).fold(0.0, f64::max)
                     };
-                    let found = super::shortest_dwell(&s, guess, hot(0.0), aim, |d| {
+                    let found = super::shortest_dwell(&s, guess, aim, |d| {
                         let from = start(&mut all.iter().copied(), d);
                         assert_eq!(
                             start(&mut kept.iter().map(|k| k.0), d),
                             from,
-                            "tau {tau} s, aim {aim_above_k} K, guess {guess} s: the try of {d} s"
+                            "tau {tau} s, aim {aim_above_k} K, {guess:?}: the try of {d} s"
                         );
                         let b = super::last_whole_step(steps, d);
                         if b > from {
@@ -1485,5 +1536,49 @@ mod tests {
             "no search dropped a state: the test shows nothing"
         );
         assert!(searches > 10, "too few searches found a dwell ({searches})");
+    }
+
+    /// A search started from a dwell found nearby (a warm guess within 15 % of the answer)
+    /// finds the shortest safe dwell to its tolerance in three tries, whether the guess is short
+    /// or long, on exponential cooling whose first seconds heat the point instead (heat just
+    /// laid soaking in: no fit may use them).
+    #[test]
+    fn a_warm_dwell_search_closes_in_three_tries() {
+        let b = crate::pipeline::test_parts::dome(30.0, "");
+        let pacing = b.pacing();
+        let s = b.search(&pacing);
+        let ambient = s.ambient_k;
+        for tau in [20.0, 90.0, 400.0] {
+            for aim_above_k in [40.0, 150.0] {
+                let aim = ambient + aim_above_k;
+                let hot = |d: f64| {
+                    let soak = 80.0 * (d / 3.0) * (-d / 3.0).exp();
+                    ambient + 400.0 * (-d / tau).exp() + soak
+                };
+                // The shortest safe dwell: the decay alone reaches the aim there.
+                let answer = tau * (400.0 / aim_above_k).ln();
+                if answer < s.dwell.min_dwell_s || answer > s.dwell.max_dwell_s / 1.2 {
+                    continue;
+                }
+                for share in [0.85, 1.0, 1.15] {
+                    let guess = super::Guess {
+                        dwell_s: share * answer,
+                        warm: true,
+                    };
+                    let mut tries = Vec::new();
+                    let found = super::shortest_dwell(&s, guess, aim, |d| {
+                        tries.push(d);
+                        Ok(((), hot(d) <= aim + 1e-9, hot(d)))
+                    })
+                    .unwrap()
+                    .map(|f| f.0);
+                    let found = found.expect("a safe dwell");
+                    let at = format!("tau {tau} s, aim {aim_above_k} K, guess {share}: {tries:?}");
+                    assert!(hot(found) <= aim + 1e-9, "{at}");
+                    assert!(found - answer <= super::tolerance(found) + 1e-9, "{at}");
+                    assert!(tries.len() <= 3, "{at}");
+                }
+            }
+        }
     }
 }
