@@ -9,6 +9,7 @@
 //! - [`rates`]: local time stepping, the nodes far from the arc stepped at their own rates.
 //! - [`run`]: the contract both heat models serve ([`HeatRun`], [`HeatModel`]) and the types
 //!   they share: per-point results, what a point lies on, field snapshots, the plate.
+//! - [`pool`]: the melt pool behind the torch, its tail interpolated between samples.
 //! - [`wall`]: the thin-wall model on the path's grid, with the substrate plate.
 //! - [`voxel`]: the 3-D voxel model, the reference for local detail.
 //! - [`error`]: what can go wrong, with the evidence.
@@ -16,6 +17,7 @@
 pub mod error;
 pub mod material;
 pub mod network;
+pub(crate) mod pool;
 pub mod rates;
 pub mod run;
 pub mod schedule;

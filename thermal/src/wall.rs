@@ -10,6 +10,7 @@
 use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Network, Surroundings};
+use crate::pool;
 use crate::rates::{LocalSteps, Reach, Torch, Window};
 use crate::run::{
     Burn, Cells, CoolingSteps, Drops, HeatRun, Hottest, Plate, PointResult, ProbeTrace, RunResult,
@@ -617,15 +618,14 @@ impl HeatRun for WallRun {
         if let Some(t) = self.drops.after(i, burn.drop) {
             self.points[i].preheat = t;
         }
-        // The melt pool behind the torch.
-        let (mut len, mut vol, mut k) = (0.0, 0.0, node as isize);
-        let net = &self.model.network;
-        let solidus = self.settings.material.solidus;
-        while k >= 0 && net.t[k as usize] > solidus {
-            len += self.model.length[k as usize];
-            vol += self.model.volume[k as usize];
-            k -= 1;
-        }
+        // The melt pool behind the torch: the wall's nodes from the torch's back along the bead.
+        let m = &self.model;
+        let samples = (0..=node).rev().map(|k| pool::Sample {
+            t: Some(m.network.t[k]),
+            length: m.length[k],
+            volume: m.volume[k],
+        });
+        let (len, vol) = pool::behind(samples, self.settings.material.solidus);
         self.points[i].pool_length = len;
         self.points[i].pool_radius = (3.0 * vol / (2.0 * std::f64::consts::PI)).cbrt();
         self.cooling_step = 1.0;

@@ -120,7 +120,9 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     );
     assert!(worst < 1.0, "models differ by {worst} times the tolerance");
     // Per point the rest of what the thin wall gives: time above 600 °C per revolution within
-    // 20 % (+1 s), the pool within one thin-wall node (3.1 mm here), peaks above the solidus.
+    // 20 % (+1 s), the pool within 2.4 mm (three quarters of a 3.1 mm thin-wall node: its tail
+    // interpolated between samples, `thermal::pool`; counted in whole samples, the two differed
+    // by 3.0 mm here), peaks above the solidus.
     let mean = |v: &[PointResult], k: usize, f: fn(&PointResult) -> f64| {
         v[k * n..(k + 1) * n].iter().map(f).sum::<f64>() / n as f64
     };
@@ -142,7 +144,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
             (above.0 - above.1).abs() <= 0.2 * above.1 + 1.0,
             "{above:?}"
         );
-        assert!((pool.0 - pool.1).abs() <= 3.2e-3, "{pool:?}");
+        assert!((pool.0 - pool.1).abs() <= 2.4e-3, "{pool:?}");
         assert!(peak.0 > 1740.0 && peak.1 > 1740.0, "{peak:?}");
     }
 }

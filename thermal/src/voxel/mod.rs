@@ -1312,24 +1312,25 @@ impl VoxelModel {
     }
 
     /// The molten bead behind the torch as deposit i is finished: the deposits back from i
-    /// whose metal is above the solidus (length along the path, m), and the radius of the half
-    /// sphere of their volume (m).
+    /// whose metal is above the solidus, the tail placed where the solidus falls between the
+    /// last molten one and the first solid one ([`crate::pool`]); its length along the path (m),
+    /// and the radius of the half sphere of its volume (m).
     fn pool(&self, deps: &[Deposit], i: usize) -> (f64, f64) {
-        let solidus = self.settings.material.solidus;
-        let (mut length, mut voxels) = (0.0, 0);
-        for j in (0..=i).rev() {
+        let cell = self.settings.size.powi(3);
+        let samples = (0..=i).rev().map(|j| {
             let laid = &self.laid[j];
-            if !laid.is_empty() && self.mean_t(laid) <= solidus {
-                break;
+            crate::pool::Sample {
+                // A deposit that added no voxel (its metal was there) has no temperature of
+                // its own.
+                t: (!laid.is_empty()).then(|| self.mean_t(laid)),
+                length: match j {
+                    0 => 0.0,
+                    _ => norm(sub(deps[j].position, deps[j - 1].position)),
+                },
+                volume: laid.len() as f64 * cell,
             }
-            length += if j > 0 {
-                norm(sub(deps[j].position, deps[j - 1].position))
-            } else {
-                0.0
-            };
-            voxels += laid.len();
-        }
-        let volume = voxels as f64 * self.settings.size.powi(3);
+        });
+        let (length, volume) = crate::pool::behind(samples, self.settings.material.solidus);
         (length, (3.0 * volume / (2.0 * std::f64::consts::PI)).cbrt())
     }
 }
