@@ -221,7 +221,10 @@ fn an_arc_stop_budget_and_its_front() {
 /// Cooling with the arc kept on, on a small dome with a synergic line: with arc stops weighed
 /// heavily the planner slows revolutions down instead of stopping the arc; path.csv carries
 /// each point's slower wire feed and travel speed with the deposit still Eq.7's, the power the
-/// line gives at the slower wire feed, and a fresh simulation of the plan is safe.
+/// line gives at the slower wire feed, and a fresh simulation of the plan is safe. The interpass
+/// limit is raised to 300 °C: at the default 200 °C this dome's plan has been all dwells since
+/// the pool's tail is interpolated (`thermal::pool`; the two revolutions slowed before were
+/// cured of humping pools a node too long), at 300 °C 96 points are slowed (measured).
 #[test]
 fn slowing_down_keeps_the_arc_on() {
     let out = crate::run_scenario(
@@ -229,7 +232,8 @@ fn slowing_down_keeps_the_arc_on() {
         "dwell",
         "[part]\nshape = \"hemisphere\"\nradius_mm = 25.0\nedge_mm = 2.5\n[planner]\nn_points = 48\n\
          [process]\npower_model = \"synergic\"\n[thermal]\nplate_mm = [90.0, 90.0, 10.0]\n\
-         [dwell]\ncount_weight_s = 300.0\n[output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
+         [dwell]\ncount_weight_s = 300.0\ninterpass_max_c = 300.0\n\
+         [output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
     );
     let d: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("dwell.json")).unwrap()).unwrap();

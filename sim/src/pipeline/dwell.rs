@@ -387,17 +387,7 @@ fn point_dwells<R: HeatRun>(
         let mut cache = Vec::new();
         let aim = s.aim_k(&trial, judged[i].iter().copied());
         // A point's dwell is near its neighbour's, most often: they lie on metal laid alike.
-        let guess = match *last > 0.0 {
-            true => Guess {
-                dwell_s: *last,
-                warm: true,
-            },
-            false => Guess {
-                dwell_s: 5.0,
-                warm: false,
-            },
-        };
-        let pass = shortest_dwell(s, guess, aim, |d| {
+        let pass = shortest_dwell(s, Guess::after(*last, 5.0), aim, |d| {
             let mut t = cooled(&x, &mut cache, d)?;
             s.lay(&mut t, i, 0.0, pace)?;
             *simulated += 1.0;
@@ -1168,17 +1158,7 @@ impl Segment<'_> {
         // overlap. Kept: the states a later try can start from, which lie between the longest
         // failing dwell and the shortest passing one ([`shortest_dwell`] tries only between);
         // the caller may cool on from them to the longest dwell when none passes.
-        let guess = match guess > 0.0 {
-            true => Guess {
-                dwell_s: guess,
-                warm: true,
-            },
-            false => Guess {
-                dwell_s: 10.0,
-                warm: false,
-            },
-        };
-        shortest_dwell(self.s, guess, aim, |d| {
+        shortest_dwell(self.s, Guess::after(guess, 10.0), aim, |d| {
             let x = cooled(start, cache, d)?;
             let (x, risk, hot) = self.trial(x, simulated)?;
             let safe = risk.is_none();
@@ -1194,6 +1174,22 @@ impl Segment<'_> {
 struct Guess {
     dwell_s: f64,
     warm: bool,
+}
+
+impl Guess {
+    /// From the `last` dwell found (0 for none), else from `default`.
+    fn after(last: f64, default: f64) -> Guess {
+        match last > 0.0 {
+            true => Guess {
+                dwell_s: last,
+                warm: true,
+            },
+            false => Guess {
+                dwell_s: default,
+                warm: false,
+            },
+        }
+    }
 }
 
 /// How close the shortest safe dwell is found: the bracket (longest failing try, shortest
