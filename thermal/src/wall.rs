@@ -612,6 +612,15 @@ impl HeatRun for WallRun {
             self.observe();
         }
         for (&(k, f), t0) in self.probes_at[i].iter().zip(before) {
+            // The step lays its node whole at its start: a point of that node (its segment
+            // longer than the lead) is read before the step, as the torch, still upstream,
+            // has not laid metal over it; interpolated, the reading took a share of that
+            // metal's heat (docs/PHYSICS.md "The preheat of a long deposit").
+            let f = if self.model.node_of[k] == node {
+                0.0
+            } else {
+                f
+            };
             let t1 = self.model.network.t[self.below[k]];
             self.points[k].preheat = t0 + f * (t1 - t0);
         }

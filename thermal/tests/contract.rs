@@ -215,6 +215,38 @@ fn a_dwell_passed_to_deposit_is_a_gap_in_the_schedule() {
     }
 }
 
+/// A deposit longer than the lead holds its own point's reading (the torch is `lead` upstream
+/// of the point while it lays that segment). Both models lay a deposit's metal whole as its arc
+/// starts, so the point is read before that metal covers its substrate, as the torch still
+/// upstream has not laid it there: its preheat is its substrate's temperature as the deposit
+/// begins. Read part-way through the step, the thin wall took a share of the molten metal's heat
+/// (R 200's lowest revolutions read 23 K hot, docs/PHYSICS.md "The preheat of a long deposit").
+#[test]
+fn a_point_read_during_its_own_deposit_is_read_before_its_metal() {
+    // Two revolutions of 8 deposits, R 25 mm: chords of 19.1 mm against the 10 mm lead.
+    let deps = helix(0.025, 8, 2, 2e-3, 5e-3, 10e-3, 1700.0);
+    let reads = thermal::schedule::read_fractions(&deps, 10e-3);
+    for model in all_models(Material::g3si()) {
+        let mut run = model.start(&deps).unwrap();
+        let mut checked = 0;
+        for i in 0..deps.len() {
+            let own = deps[i].support.is_some() && reads[i].is_some_and(|(j, _)| j == i);
+            let substrate = run.temperature_beneath(i);
+            run.deposit(i, 0.0).unwrap();
+            if own {
+                let preheat = run.points()[i].preheat;
+                assert!(
+                    (preheat - substrate).abs() < 1e-9,
+                    "{}: point {i} read {preheat} K, its substrate was {substrate} K",
+                    model.name()
+                );
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 8, "{}", model.name());
+    }
+}
+
 /// A burn other than the schedule's is the schedule with that arc time and heat: slowing a
 /// revolution down through `deposit_burning` on a run started on the planned schedule gives what
 /// a run of the slowed schedule gives, and the heat booked is the burns' heat.

@@ -66,6 +66,11 @@ pub fn check(
         e.bytes += crate::pipeline::cost::recording_bytes(deposits.len(), keeps.frames);
     }
     eprintln!("{}", e.line());
+    if t.model == ThermalModel::ThinWall
+        && let Some(c) = crate::pipeline::resolution::coarse_deposits(deposits, t.node_m)
+    {
+        eprintln!("{}", c.line());
+    }
     if let Some(avail) = available_memory()
         && e.bytes > avail
     {

@@ -60,6 +60,7 @@ pub mod pace;
 pub mod params;
 pub mod program;
 pub mod replay;
+pub mod resolution;
 pub mod risk;
 pub mod skeleton;
 pub mod twin;

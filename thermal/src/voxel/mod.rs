@@ -1624,6 +1624,16 @@ impl HeatRun for VoxelRun {
         });
         self.next_probe = 0;
         self.read(i, burn.arc_time, 0.0);
+        // A point read during its own deposit (its segment longer than the lead) is read
+        // before the deposit's metal, laid whole, covers its substrate: the torch, still
+        // upstream, has not laid it there (the thin wall's rule; docs/PHYSICS.md "The preheat
+        // of a long deposit"). It is the first read during the deposit, if any.
+        if let Some(&(k, _)) = self.probes_at[i].get(self.next_probe)
+            && k == i
+        {
+            self.points[k].preheat = self.model.mean_t(&self.model.beneath(&self.deps, k));
+            self.next_probe += 1;
+        }
         let before = self.model.ledger.deposited;
         self.model.lay(&self.deps, i);
         // The arc's heat less what the new metal took.
