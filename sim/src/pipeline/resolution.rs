@@ -1,8 +1,8 @@
 //! Whether the path is fine enough for the thin wall. Its nodes along the bead are the path's
-//! deposits (merged where shorter than `node_mm`, never split), and its preheat converges as the
-//! square of their length: on the R 200 dome (measure.sh's) the lowest revolutions read 36–40 K
-//! above a path of 2.6 mm deposits with 10.5 mm ones, 4–9 K with 5.2 mm ones (docs/PHYSICS.md
-//! "Resolution along the bead"). Deposits longer than twice `node_mm` are reported, so that a
+//! deposits (merged where shorter than `node_mm`, never split), and its preheat depends on their
+//! length: on the R 200 dome (measure.sh's) the lowest revolutions read 36–40 K above a path of
+//! 2.6 mm deposits with 10.5 mm ones, 4–9 K with 5.2 mm ones, the error falling as the square of
+//! the length (docs/PHYSICS.md "Resolution along the bead"). Deposits longer than twice `node_mm` are reported, so that a
 //! preheat that is the grid's is not taken for the part's.
 
 use thermal::schedule::{Deposit, arc_lengths};
@@ -24,9 +24,9 @@ impl Coarse {
         format!(
             "warning: thin wall: {} of {} deposits are longer than {:.1} mm (twice \
              [thermal] node_mm), up to {:.1} mm; each is one node along the bead, and the \
-             preheat converges as the node's length squared (R 200's lowest revolutions read \
-             36-40 K hot with 10.5 mm deposits, docs/PHYSICS.md \"Resolution along the bead\"): \
-             more points ([planner] n_points) refine it",
+             preheat depends on their length (R 200's lowest revolutions read 36-40 K hot \
+             with 10.5 mm deposits, docs/PHYSICS.md \"Resolution along the bead\"): more \
+             points ([planner] n_points) refine it",
             self.over,
             self.deposits,
             self.limit_m * 1e3,
