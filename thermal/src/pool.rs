@@ -5,11 +5,11 @@
 //! Counting whole samples above the solidus moves the pool by a whole sample at once: on a
 //! large part the thin wall's nodes are up to 10 mm long (R 200), two thirds of the humping
 //! limit's 15.7 mm, so a node a fraction of a kelvin either side of the solidus halved or doubled
-//! the pool and flipped the humping judgment (docs/PHYSICS.md "The melt pool's tail"). Each sample stands for the
-//! stretch of bead centred on it, its temperature taken as the stretch's centre's, and the
-//! temperature linear between two centres (the thin wall's own linear elements along the bead);
-//! the pool then ends where that line crosses the solidus, and moves continuously with the
-//! temperatures. A linear profile is measured exactly (unit test).
+//! the pool and flipped the humping judgment (docs/PHYSICS.md "The melt pool's tail"). Each
+//! sample stands for the stretch of bead centred on it, its temperature taken as the stretch's
+//! centre's, and the temperature linear between two centres (the thin wall's own linear elements
+//! along the bead); the pool then ends where that line crosses the solidus, and moves
+//! continuously with the temperatures. A linear profile is measured exactly (unit test).
 
 /// One sample of the bead behind the torch: its temperature (K; `None` where the model has none
 /// of its own, counted molten with the samples around it), the length of bead it stands for

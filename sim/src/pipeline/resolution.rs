@@ -2,8 +2,8 @@
 //! deposits (merged where shorter than `node_mm`, never split), and its preheat depends on their
 //! length: on the R 200 dome (measure.sh's) the lowest revolutions read 36–40 K above a path of
 //! 2.6 mm deposits with 10.5 mm ones, 4–9 K with 5.2 mm ones, the error falling as the square of
-//! the length (docs/PHYSICS.md "Resolution along the bead"). Deposits longer than twice `node_mm` are reported, so that a
-//! preheat that is the grid's is not taken for the part's.
+//! the length (docs/PHYSICS.md "Resolution along the bead"). Deposits longer than twice
+//! `node_mm` are reported, so that a preheat that is the grid's is not taken for the part's.
 
 use thermal::schedule::{Deposit, arc_lengths};
 
