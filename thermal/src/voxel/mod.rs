@@ -44,9 +44,26 @@ use std::sync::Arc;
 /// Active voxels per chunk: the unit of the ledger's partial sums, so results do not depend on
 /// how chunks are spread over threads.
 const CHUNK: usize = 4096;
-/// Chunks a thread takes at least: a step over fewer voxels than this costs less than handing
+/// A step over fewer than twice this many chunks runs as one task: it costs less than handing
 /// work to another thread (measured: a 16 000-voxel set ran slower on two threads than on one).
 const CHUNKS_PER_TASK: usize = 4;
+/// Deposits a thread takes at least when their peaks are read after a step (`observe`); few
+/// in tests, so that their runs of a few hundred deposits share it.
+const OBSERVED_PER_TASK: usize = if cfg!(test) { 16 } else { 1024 };
+
+/// Chunks per task of a step over `chunks` chunks on `threads` threads: one task on one thread
+/// or for a set under 2·`CHUNKS_PER_TASK` chunks; else one chunk a task, so that a thread done
+/// early takes the other's next. Cut by count into a few pieces (rayon's splitter cuts again
+/// only where a piece is stolen), the threads' shares cost unequal time: the plate's voxels,
+/// first in the active set, step in regular groups of eight, the deposit's by scalar loads of
+/// their neighbours (docs/PERFORMANCE.md, "Two cores"; eight tasks a thread measured slower
+/// than one chunk a task).
+fn chunks_per_task(chunks: usize, threads: usize) -> usize {
+    match threads < 2 || chunks < 2 * CHUNKS_PER_TASK {
+        true => chunks.max(1),
+        false => 1,
+    }
+}
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VoxelSettings {
@@ -991,13 +1008,15 @@ impl VoxelModel {
             .as_deref()
             .map_or(&self.tables, |s| &s.tables);
         let regions = [(&cc, plate_tables), (&cp, plate_tables), (&c, &self.tables)];
+        let per_task = chunks_per_task(self.h.len().div_ceil(CHUNK), rayon::current_num_threads());
         let partial: Vec<[f32; 3]> = self
             .h
             .par_chunks_mut(CHUNK)
             .zip(self.t.par_chunks_mut(CHUNK))
             .zip(self.phi_next.par_chunks_mut(CHUNK))
             .enumerate()
-            .with_min_len(CHUNKS_PER_TASK)
+            .with_min_len(per_task)
+            .with_max_len(per_task)
             .map(|(k, ((mut h, mut t), mut phi_next))| {
                 let mut sums = [0.0f32; 3];
                 for (r, region) in spans(k * CHUNK..k * CHUNK + h.len(), bounds) {
@@ -1275,19 +1294,23 @@ impl VoxelModel {
     /// Peak and time above the threshold of the metal of deposits 0..laid, after a step of dt.
     /// Returns the hottest laid metal's temperature (NaN before any is laid).
     fn observe(&self, laid: usize, dt: f64, points: &mut [PointResult]) -> f64 {
-        let mut hottest = f64::NAN;
-        for (p, voxels) in points[..laid].iter_mut().zip(&self.laid) {
-            if voxels.is_empty() {
-                continue;
-            }
-            let t = self.mean_t(voxels);
-            hottest = hottest.max(t);
-            p.peak = p.peak.max(t);
-            if t > self.settings.hot_threshold {
-                p.time_above += dt;
-            }
-        }
-        hottest
+        let hot = self.settings.hot_threshold;
+        points[..laid]
+            .par_iter_mut()
+            .zip(&self.laid[..laid])
+            .with_min_len(OBSERVED_PER_TASK)
+            .map(|(p, voxels)| {
+                if voxels.is_empty() {
+                    return f64::NAN;
+                }
+                let t = self.mean_t(voxels);
+                p.peak = p.peak.max(t);
+                if t > hot {
+                    p.time_above += dt;
+                }
+                t
+            })
+            .reduce(|| f64::NAN, f64::max)
     }
 
     /// Keep the field at the snapshot times reached by `now`, deposits 0..laid laid: per
@@ -2038,6 +2061,17 @@ mod tests {
             }
             same_bits_on_one_thread_or_two(&deps, &settings);
         }
+    }
+
+    /// One thread, or a set of fewer than 2·`CHUNKS_PER_TASK` chunks, is one task; two threads
+    /// take the chunks one at a time.
+    #[test]
+    fn a_step_is_cut_into_tasks_by_threads_and_size() {
+        assert_eq!(chunks_per_task(100, 1), 100);
+        assert_eq!(chunks_per_task(0, 2), 1);
+        assert_eq!(chunks_per_task(7, 2), 7);
+        assert_eq!(chunks_per_task(8, 2), 1);
+        assert_eq!(chunks_per_task(167, 2), 1);
     }
 
     fn same_bits_on_one_thread_or_two(deps: &[Deposit], settings: &VoxelSettings) {
