@@ -1,8 +1,8 @@
 //! Thermal benchmarks (issue 6).
 //!
 //! 1. The voxel kernel: explicit 7-point enthalpy updates over the active set of a finished
-//!    10-revolution cylinder (R 60 mm, 2 mm voxels, with its 200 × 200 × 10 mm plate), on one
-//!    thread and on two; updates per second.
+//!    10-revolution cylinder (R 60 mm, 2 mm voxels, with its 200 × 200 × 10 mm plate), and over
+//!    the plate alone, on one thread and on two; updates per second.
 //! 2. The thin-wall model on a whole build: the 80-revolution cylinder R 80 × 160 mm.
 //!
 //! Run: `cargo bench -p thermal --bench thermal` (add `-- voxel` for the kernel alone,
