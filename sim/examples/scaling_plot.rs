@@ -22,7 +22,7 @@ struct Row {
     peak_mb: f64,
 }
 
-/// The rows by series ("thin-wall, local steps"), in the file's order.
+/// The rows by series ("thin-wall, local steps"), each by the dome's radius.
 type Series = BTreeMap<String, Vec<Row>>;
 
 fn read(path: &str) -> Result<Series, String> {
@@ -70,6 +70,10 @@ fn read(path: &str) -> Result<Series, String> {
                 wall_s: num(5)?,
                 peak_mb: num(6)?,
             });
+    }
+    // Rows are appended as runs are made, not by size: each line is drawn from the smallest.
+    for rows in series.values_mut() {
+        rows.sort_by(|a, b| a.radius_mm.total_cmp(&b.radius_mm));
     }
     Ok(series)
 }
@@ -137,6 +141,10 @@ where
         RGBColor(20, 160, 190),
         RGBColor(120, 120, 120),
         RGBColor(160, 110, 40),
+        RGBColor(20, 20, 20),
+        RGBColor(230, 90, 160),
+        RGBColor(120, 150, 20),
+        RGBColor(0, 0, 110),
     ];
     for (k, (name, rows)) in series.iter().enumerate() {
         let c = colours[k % colours.len()];

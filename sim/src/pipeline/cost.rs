@@ -26,6 +26,22 @@ pub const BASE_BYTES: f64 = 12e6;
 pub const VOXEL_NS_PER_STEP: f64 = 3.2;
 pub const STEP_OVERHEAD_S: f64 = 6.8e-5;
 
+/// On a GPU (`[thermal] device = "gpu"`): the time each step costs whatever its voxels, the
+/// rate at which the mean active voxels add to it, and the time each deposit costs (its reads
+/// of the field back to the host, the host's work on it). Fitted to four closed domes on an
+/// NVIDIA H200 (docs/PERFORMANCE.md "The voxel model on a GPU", 2026-11-27; [`gpu_seconds`]):
+/// R 50 to 300, 8.9e4 to 7.5e5 mean voxels, 157, 132, 131 and 157 µs a step, each within 2 %.
+/// Another GPU differs: the estimate is the H200's pace, and says so.
+pub const GPU_STEP_S: f64 = 8.9e-5;
+pub const GPU_UPDATES_PER_S: f64 = 1.33e10;
+pub const GPU_DEPOSIT_S: f64 = 3.0e-4;
+
+/// A voxel run's time on a GPU at the H200's pace: `steps` explicit steps over `mean` active
+/// voxels on average, `deposits` deposits.
+pub fn gpu_seconds(steps: f64, mean: f64, deposits: f64) -> f64 {
+    steps * (GPU_STEP_S + mean / GPU_UPDATES_PER_S) + deposits * GPU_DEPOSIT_S
+}
+
 /// Bytes per thin-wall node, all it keeps (its matrices' rows included).
 pub const NODE_BYTES: f64 = 2_000.0;
 
@@ -50,6 +66,8 @@ const LOCAL_NEAR_M: f64 = super::params::documented::LOCAL_NEAR_MM * 1e-3;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
     pub model: ThermalModel,
+    /// The voxel model on a GPU: `seconds` at the H200's pace ([`gpu_seconds`]).
+    pub on_gpu: bool,
     /// Active cells at the end (voxels, or thin-wall nodes).
     pub cells: f64,
     pub plate_cells: f64,
@@ -66,8 +84,13 @@ impl Estimate {
             ThermalModel::Voxel => "voxels",
             ThermalModel::ThinWall => "thin-wall nodes",
         };
+        let pace = if self.on_gpu {
+            " on a GPU at the pace measured on an H200"
+        } else {
+            ""
+        };
         format!(
-            "estimate: {:.3e} {what} ({:.3e} of them the plate), {:.3e} steps, {}, about {}",
+            "estimate: {:.3e} {what} ({:.3e} of them the plate), {:.3e} steps, {}, about {}{pace}",
             self.cells,
             self.plate_cells,
             self.steps,
@@ -131,16 +154,23 @@ pub fn estimate(
             let cells = plate + metal;
             let steps = build_s / stable_step(m, dx);
             let mean = plate + metal / 2.0;
+            let on_gpu = t.device == thermal::voxel::Device::Gpu;
+            let seconds = match on_gpu {
+                true => gpu_seconds(steps, mean, deposits.len() as f64),
+                false => {
+                    steps * (STEP_OVERHEAD_S + mean * VOXEL_NS_PER_STEP * 1e-9) / speedup(threads)
+                }
+            };
             Estimate {
                 model: t.model,
+                on_gpu,
                 cells,
                 plate_cells: plate,
                 steps,
                 bytes: BASE_BYTES
                     + cells * VOXEL_BYTES * copies
                     + frame_bytes(deposits.len(), frames),
-                seconds: steps * (STEP_OVERHEAD_S + mean * VOXEL_NS_PER_STEP * 1e-9)
-                    / speedup(threads),
+                seconds,
             }
         }
         ThermalModel::ThinWall => {
@@ -169,6 +199,7 @@ pub fn estimate(
             };
             Estimate {
                 model: t.model,
+                on_gpu: false,
                 cells: nodes,
                 plate_cells: plate,
                 steps,
@@ -329,6 +360,51 @@ mod tests {
             "{}",
             e.plate_cells
         );
+    }
+
+    /// The GPU's pace against the four domes it was fitted to (docs/PERFORMANCE.md, the H200's
+    /// heat runs: steps, the estimate's mean active voxels, deposits, seconds measured).
+    #[test]
+    fn the_gpu_pace_meets_the_domes_measured() {
+        let domes = [
+            (23_692.0, 88_600.0, 4_921.0, 3.73),
+            (93_270.0, 113_000.0, 10_201.0, 12.32),
+            (366_768.0, 360_000.0, 20_641.0, 47.89),
+            (820_353.0, 749_000.0, 31_081.0, 129.15),
+        ];
+        for (steps, mean, deposits, measured) in domes {
+            let s = gpu_seconds(steps, mean, deposits);
+            assert!(
+                (s / measured - 1.0).abs() < 0.03,
+                "{s} s against {measured} s"
+            );
+        }
+    }
+
+    /// On a GPU the estimate is the same on any number of threads, and its line says whose
+    /// pace it is.
+    #[test]
+    fn a_gpu_estimate_is_the_h200s_pace() {
+        let deps = thermal::schedule::helix(0.05, 60, 10, 0.0018, 0.005, 0.01, 2000.0);
+        let t = ThermalSettings {
+            model: ThermalModel::Voxel,
+            voxel_m: 2e-3,
+            plate_m: [0.2, 0.2, 0.01],
+            plate_fit: false,
+            device: thermal::voxel::Device::Gpu,
+            ..ThermalSettings::default()
+        };
+        let m = thermal::material::Material::g3si();
+        let gpu = estimate(&t, &m, &deps, 1000.0, 1.0, 0, 1);
+        assert_eq!(gpu, estimate(&t, &m, &deps, 1000.0, 1.0, 0, 16));
+        assert!(gpu.line().contains("H200"), "{}", gpu.line());
+        let cpu = ThermalSettings {
+            device: thermal::voxel::Device::Cpu,
+            ..t
+        };
+        let cpu = estimate(&cpu, &m, &deps, 1000.0, 1.0, 0, 1);
+        assert!(!cpu.line().contains("H200"), "{}", cpu.line());
+        assert!(cpu.seconds != gpu.seconds && cpu.steps == gpu.steps);
     }
 
     /// The thin wall with local steps: the near set at every deposit and a few steps a node
