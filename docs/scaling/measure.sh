@@ -7,14 +7,31 @@
 # COMMAND=dwell runs `waamtwin dwell --no-baselines` instead (the dwell plan: the search, its
 # yardstick and bound, the runs without and with the dwells); its rows' mode is "dwell-" and the
 # mode they were run with.
+# GPU=NAME runs the voxel model alone with `device = "gpu"` and its plate uncut (what the GPU
+# asks), one row a dome with mode "gpu-NAME" (NAME the device's: "gpu-H200"), on the binary BIN (a
+# build with `--features gpu`, carried to the GPU's machine) instead of building one.
 # Usage: [MODELS="thin-wall voxel"] [MODES="reference cut"] [COMMAND=simulate|dwell] [KEEP=DIR]
-#        docs/scaling/measure.sh [RADIUS_MM ...]   (default 50 100 200; rows are appended;
-#        the binary is $CARGO_TARGET_DIR's, else target/'s)
+#        [GPU=NAME BIN=PATH] docs/scaling/measure.sh [RADIUS_MM ...]   (default 50 100 200; rows
+#        are appended; the binary is BIN, else $CARGO_TARGET_DIR's, else target/'s)
 # Then: cargo run --release -p sim --example scaling_plot -- docs/scaling/scaling.csv docs/img/scaling.png
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-cargo build --release -p sim --bin waamtwin
-bin="${CARGO_TARGET_DIR:-target}/release/waamtwin"
+cases=("thin-wall reference local_steps=false" "thin-wall cut local_steps=true"
+  "voxel reference coarse_plate=false" "voxel cut coarse_plate=true")
+device=cpu
+device_key=""
+if [ -n "${GPU:-}" ]; then
+  [ -n "${BIN:-}" ] || { echo "GPU=$GPU: expected BIN=PATH, a build with --features gpu" >&2; exit 2; }
+  cases=("voxel gpu-$GPU coarse_plate=false")
+  device=gpu
+  device_key='device = "gpu"'
+fi
+if [ -n "${BIN:-}" ]; then
+  bin="$BIN"
+else
+  cargo build --release -p sim --bin waamtwin
+  bin="${CARGO_TARGET_DIR:-target}/release/waamtwin"
+fi
 command="${COMMAND:-simulate}"
 case "$command" in
   simulate) extra=() ;;
@@ -28,11 +45,10 @@ trap 'rm -rf "$work"' EXIT
 table=docs/scaling/scaling.csv
 [ -f "$table" ] || echo "model,mode,radius_mm,bead_m,deposits,wall_s,peak_mb" >"$table"
 for r in "${radii[@]}"; do
-  for case in "thin-wall reference local_steps=false" "thin-wall cut local_steps=true" \
-    "voxel reference coarse_plate=false" "voxel cut coarse_plate=true"; do
+  for case in "${cases[@]}"; do
     read -r model mode key <<<"$case"
     [[ " ${MODELS:-thin-wall voxel} " == *" $model "* ]] || continue
-    [[ " ${MODES:-reference cut} " == *" $mode "* ]] || continue
+    [[ $device == gpu || " ${MODES:-reference cut} " == *" $mode "* ]] || continue
     cat >"$work/s.toml" <<TOML
 [part]
 shape = "hemisphere"
@@ -41,6 +57,7 @@ edge_mm = 2.0
 [thermal]
 model = "$model"
 ${key/=/ = }
+$device_key
 [output]
 rerun = false
 mcap = false
