@@ -27,8 +27,9 @@ pub const VOXEL_NS_PER_STEP: f64 = 3.2;
 pub const STEP_OVERHEAD_S: f64 = 6.8e-5;
 
 /// On a GPU (`[thermal] device = "gpu"`): the time each step costs whatever its voxels, the
-/// rate at which the mean active voxels add to it, and the time each deposit costs (its reads
-/// of the field back to the host, the host's work on it). Fitted to four closed domes on an
+/// rate at which the mean active voxels add to it, and the time each deposit costs (what the
+/// run does at each deposit, its reads of the field back and the host's work among it; not
+/// profiled on the device). Fitted to four closed domes on an
 /// NVIDIA H200 (docs/PERFORMANCE.md "The voxel model on a GPU", 2026-11-27; [`gpu_seconds`]):
 /// R 50 to 300, 8.9e4 to 7.5e5 mean voxels, 157, 132, 131 and 157 µs a step, each within 2 %.
 /// Another GPU differs: the estimate is the H200's pace, and says so.
