@@ -26,16 +26,17 @@ pub const BASE_BYTES: f64 = 12e6;
 pub const VOXEL_NS_PER_STEP: f64 = 3.2;
 pub const STEP_OVERHEAD_S: f64 = 6.8e-5;
 
-/// On a GPU (`[thermal] device = "gpu"`): the time each step costs whatever its voxels, the
-/// rate at which the mean active voxels add to it, and the time each deposit costs (what the
-/// run does at each deposit, its reads of the field back and the host's work among it; not
-/// profiled on the device). Fitted to four closed domes on an
-/// NVIDIA H200 (docs/PERFORMANCE.md "The voxel model on a GPU", 2026-11-27; [`gpu_seconds`]):
-/// R 50 to 300, 8.9e4 to 7.5e5 mean voxels, 157, 132, 131 and 157 µs a step, each within 2 %.
-/// Another GPU differs: the estimate is the H200's pace, and says so.
-pub const GPU_STEP_S: f64 = 8.9e-5;
-pub const GPU_UPDATES_PER_S: f64 = 1.33e10;
-pub const GPU_DEPOSIT_S: f64 = 3.0e-4;
+/// On a GPU (`[thermal] device = "gpu"`): the time each step costs whatever its voxels (most of
+/// it the host's recording and submitting of the step's passes, and the device's launches), the
+/// rate at which the mean active voxels add to it (`voxel_rate`'s at 64 M voxels), and the time
+/// each deposit costs (the field read back at the end of each call, and the host's laying of
+/// the metal and its source). Fitted to four closed domes on an NVIDIA H200 (docs/PERFORMANCE.md
+/// "Where a GPU step's time goes", 2026-11-27; [`gpu_seconds`]): R 50 to 300, 8.9e4 to 7.5e5
+/// mean voxels, 162, 131, 113 and 105 µs a step, each within 3 %. Another GPU differs: the
+/// estimate is the H200's pace, and says so.
+pub const GPU_STEP_S: f64 = 8.53e-5;
+pub const GPU_UPDATES_PER_S: f64 = 9.39e10;
+pub const GPU_DEPOSIT_S: f64 = 3.78e-4;
 
 /// A voxel run's time on a GPU at the H200's pace: `steps` explicit steps over `mean` active
 /// voxels on average, `deposits` deposits.
@@ -368,10 +369,10 @@ mod tests {
     #[test]
     fn the_gpu_pace_meets_the_domes_measured() {
         let domes = [
-            (23_692.0, 88_600.0, 4_921.0, 3.73),
-            (93_270.0, 113_000.0, 10_201.0, 12.32),
-            (366_768.0, 360_000.0, 20_641.0, 47.89),
-            (820_353.0, 749_000.0, 31_081.0, 129.15),
+            (23_692.0, 88_600.0, 4_921.0, 3.84),
+            (93_270.0, 113_000.0, 10_201.0, 12.23),
+            (366_768.0, 360_000.0, 20_641.0, 41.32),
+            (820_353.0, 749_000.0, 31_081.0, 85.87),
         ];
         for (steps, mean, deposits, measured) in domes {
             let s = gpu_seconds(steps, mean, deposits);

@@ -289,12 +289,12 @@ impl VoxelModel {
         times: &[f64],
     ) {
         if !r.t.is_empty() {
-            self.t.copy_from_slice(r.t);
+            copy(&mut self.t, r.t);
         }
         if what == Read::All {
-            self.h.copy_from_slice(r.h);
-            self.phi.copy_from_slice(r.phi);
-            self.phi_next.copy_from_slice(r.phi);
+            copy(&mut self.h, r.h);
+            copy(&mut self.phi, r.phi);
+            copy(&mut self.phi_next, r.phi);
             for ((pt, &pk), &up) in points.iter_mut().zip(r.peak).zip(r.above) {
                 pt.peak = pt.peak.max(pk as f64);
                 pt.time_above += up as f64;
@@ -337,4 +337,20 @@ impl VoxelModel {
             Home::Batch(b, _) => b.regular(),
         }
     }
+}
+
+/// `dst` ← `src` in pieces on every thread: the field read back at each call's end is copied out
+/// of the mapped buffer at one core's memory bandwidth otherwise (on the H200's machine it was a
+/// third of a dome's time, docs/PERFORMANCE.md "Where a GPU step's time goes").
+fn copy(dst: &mut [f32], src: &[f32]) {
+    use rayon::prelude::*;
+    const PIECE: usize = 1 << 16;
+    assert_eq!(
+        dst.len(),
+        src.len(),
+        "the device's copy and the host's differ in length"
+    );
+    dst.par_chunks_mut(PIECE)
+        .zip(src.par_chunks(PIECE))
+        .for_each(|(d, s)| d.copy_from_slice(s));
 }
