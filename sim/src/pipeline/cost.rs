@@ -28,15 +28,15 @@ pub const STEP_OVERHEAD_S: f64 = 6.8e-5;
 
 /// On a GPU (`[thermal] device = "gpu"`): the time each step costs whatever its voxels (most of
 /// it the host's recording and submitting of the step's passes, and the device's launches), the
-/// rate at which the mean active voxels add to it (`voxel_rate`'s at 64 M voxels), and the time
-/// each deposit costs (the field read back at the end of each call, and the host's laying of
-/// the metal and its source). Fitted to four closed domes on an NVIDIA H200 (docs/PERFORMANCE.md
-/// "Where a GPU step's time goes", 2026-11-27; [`gpu_seconds`]): R 50 to 300, 8.9e4 to 7.5e5
-/// mean voxels, 162, 131, 113 and 105 µs a step, each within 3 %. Another GPU differs: the
-/// estimate is the H200's pace, and says so.
-pub const GPU_STEP_S: f64 = 8.53e-5;
-pub const GPU_UPDATES_PER_S: f64 = 9.39e10;
-pub const GPU_DEPOSIT_S: f64 = 3.78e-4;
+/// rate at which the mean active voxels add to it (a dome's cells, slower than `voxel_rate`'s
+/// regular plate), and the time each deposit costs (the field read back at the end of each
+/// call, and the host's laying of the metal and its source). Fitted to five closed domes on an
+/// NVIDIA H200 (docs/PERFORMANCE.md "Where a GPU step's time goes", 2026-11-27;
+/// [`gpu_seconds`]): R 50 to 400, 8.9e4 to 1.3e6 mean voxels, 162, 131, 113, 105 and 124 µs a
+/// step, each within 7 %. Another GPU differs: the estimate is the H200's pace, and says so.
+pub const GPU_STEP_S: f64 = 6.88e-5;
+pub const GPU_UPDATES_PER_S: f64 = 3.0e10;
+pub const GPU_DEPOSIT_S: f64 = 4.65e-4;
 
 /// A voxel run's time on a GPU at the H200's pace: `steps` explicit steps over `mean` active
 /// voxels on average, `deposits` deposits.
@@ -364,8 +364,10 @@ mod tests {
         );
     }
 
-    /// The GPU's pace against the four domes it was fitted to (docs/PERFORMANCE.md, the H200's
-    /// heat runs: steps, the estimate's mean active voxels, deposits, seconds measured).
+    /// The GPU's pace against the five domes it was fitted to (docs/PERFORMANCE.md, the H200's
+    /// heat runs: steps, the estimate's mean active voxels, deposits, seconds measured). Three
+    /// constants follow R 50 to 400 within 7 %, not closer: the per-step time falls from R 50 to
+    /// R 300 (the deposits' reads shared by more steps) and rises to R 400 (the voxels).
     #[test]
     fn the_gpu_pace_meets_the_domes_measured() {
         let domes = [
@@ -373,11 +375,12 @@ mod tests {
             (93_270.0, 113_000.0, 10_201.0, 12.23),
             (366_768.0, 360_000.0, 20_641.0, 41.32),
             (820_353.0, 749_000.0, 31_081.0, 85.87),
+            (1_454_976.0, 1_275_000.0, 41_521.0, 180.54),
         ];
         for (steps, mean, deposits, measured) in domes {
             let s = gpu_seconds(steps, mean, deposits);
             assert!(
-                (s / measured - 1.0).abs() < 0.03,
+                (s / measured - 1.0).abs() < 0.07,
                 "{s} s against {measured} s"
             );
         }
