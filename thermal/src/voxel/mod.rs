@@ -3,9 +3,10 @@
 //! stored, each with its six neighbours; a step visits the active set alone. Explicit in time at
 //! the stability limit, f32 state, enthalpy update (latent heat included) with conduction on the
 //! Kirchhoff potential (`kernel`), rayon over fixed chunks of the active set (the same arithmetic
-//! on one thread or two). Beads settle on what they lie on (`settle`). The arc's heat is a
-//! Goldak double ellipsoid (Goldak, Chakravarti, Bibby 1984) scaled so that its discrete sum is
-//! exactly the heat of the segment. The plate may be of its own material (`substrate`): its
+//! on one thread or two); the same tasks read the laid metal's peaks (`watch`). Beads settle on
+//! what they lie on (`settle`). The arc's heat is a Goldak double ellipsoid (Goldak, Chakravarti,
+//! Bibby 1984), cut at three semi-axes and scaled so that its discrete sum is exactly the heat
+//! of the segment. The plate may be of its own material (`substrate`): its
 //! voxels come first in the active set and step with its tables; the faces where deposit meets
 //! plate are corrected after each step to a conductance in series. Away from the metal laid on
 //! it, the plate may be coarsened (`VoxelSettings::coarse_plate`): blocks of 2 × 2 × 2 cells,
@@ -15,6 +16,7 @@
 #[cfg(feature = "gpu")]
 mod gpu;
 mod kernel;
+mod watch;
 
 #[cfg(feature = "gpu")]
 use gpu::Read;
@@ -39,7 +41,9 @@ use crate::schedule::{Deposit, just_laid, read_fractions, segment_start, validat
 use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use std::ops::Range;
 use std::sync::Arc;
+use watch::{Pieces, Runs, Watch, mean_of, watch_points};
 
 /// Active voxels per chunk: the unit of the ledger's partial sums, so results do not depend on
 /// how chunks are spread over threads.
@@ -217,6 +221,11 @@ pub struct VoxelModel {
     /// a face closed, a temperature put).
     #[serde(skip)]
     dirty: Vec<u32>,
+    /// Deposits 0..n's voxels as runs of the active set (`laid`'s lists, each a run, one after
+    /// another in laying order), for the step to read each deposit's metal in the chunk that
+    /// holds it (`Watch`); taken from `laid` as deposits are watched, so none in a saved state.
+    #[serde(skip)]
+    runs: Runs,
     /// On a GPU: the device's copy of the active set; none in a clone or a resumed run, which
     /// make their own from the host's copy.
     #[cfg(feature = "gpu")]
@@ -392,6 +401,7 @@ impl VoxelModel {
             seams: Vec::new(),
             mixed_seams: Vec::new(),
             dirty: Vec::new(),
+            runs: Runs::default(),
             #[cfg(feature = "gpu")]
             field: Default::default(),
         };
@@ -660,6 +670,7 @@ impl VoxelModel {
     /// on and its top (`settle`) along the build direction, and along the segment from the
     /// previous point.
     fn lay(&mut self, deps: &[Deposit], i: usize) {
+        self.runs.forget_from(i);
         let d = &deps[i];
         let prev = segment_start(deps, i);
         let dx = self.settings.size;
@@ -974,6 +985,16 @@ impl VoxelModel {
     /// update of h on Φ over the active set, losses from each voxel's exposed and table areas,
     /// then T and Φ from the new h.
     pub fn step(&mut self, dt: f64, source: &[(u32, f32)]) {
+        self.step_watched(dt, source, None);
+    }
+
+    /// A step (`step`) that also reads the laid metal's peaks and times above (`observe`), each
+    /// deposit's in the task that stepped the chunk holding its voxels, while they are in that
+    /// core's cache, so that a step hands work to the threads once, not twice; a deposit across
+    /// two chunks is read after the step. The same numbers to the bit as `step` then `observe`
+    /// (each mean summed in the same order). Returns the hottest laid metal's temperature (NaN
+    /// before any is laid, or without a watch).
+    fn step_watched(&mut self, dt: f64, source: &[(u32, f32)], watch: Option<Watch>) -> f64 {
         let [cc, cp, c] = self.coefficients(dt);
         let (coarse, plate_voxels) = (self.coarse, self.plate_voxels);
         let inv_cap = |v: usize| match v {
@@ -1008,17 +1029,39 @@ impl VoxelModel {
             .as_deref()
             .map_or(&self.tables, |s| &s.tables);
         let regions = [(&cc, plate_tables), (&cp, plate_tables), (&c, &self.tables)];
-        let per_task = chunks_per_task(self.h.len().div_ceil(CHUNK), rayon::current_num_threads());
-        let partial: Vec<[f32; 3]> = self
+        let chunks = self.h.len().div_ceil(CHUNK);
+        let per_task = chunks_per_task(chunks, rayon::current_num_threads());
+        let hot = self.settings.hot_threshold;
+        // Read after the step: on a plate of another material, whose faces with the deposit
+        // are conducted once the chunks are done (`interface`), and deposits not laid as runs
+        // (never, as `lay` lays them).
+        let (mut watched, mut apart) = (None, None);
+        if let Some(w) = watch {
+            let cut = match self.substrate {
+                None => self.runs.cut(&self.laid, w.laid, chunks),
+                Some(_) => None,
+            };
+            match cut {
+                Some(cut) => watched = Some((w, cut)),
+                None => apart = Some(w),
+            }
+        }
+        let (pieces, runs): (Pieces, &[Range<u32>]) = match watched {
+            Some((ref mut w, ref cut)) => (cut.pieces(&mut w.points[..w.laid]), &self.runs.runs),
+            None => ((0..chunks).map(|_| (0, &mut [][..])).collect(), &[]),
+        };
+        let partial: Vec<([f32; 3], f64)> = self
             .h
             .par_chunks_mut(CHUNK)
             .zip(self.t.par_chunks_mut(CHUNK))
             .zip(self.phi_next.par_chunks_mut(CHUNK))
+            .zip(pieces)
             .enumerate()
             .with_min_len(per_task)
             .with_max_len(per_task)
-            .map(|(k, ((mut h, mut t), mut phi_next))| {
+            .map(|(k, (((mut h, t_chunk), mut phi_next), (first, points)))| {
                 let mut sums = [0.0f32; 3];
+                let mut t = &mut *t_chunk;
                 for (r, region) in spans(k * CHUNK..k * CHUNK + h.len(), bounds) {
                     let n = r.len();
                     let (h_r, h_rest) = std::mem::take(&mut h).split_at_mut(n);
@@ -1051,13 +1094,27 @@ impl VoxelModel {
                         *acc += x;
                     }
                 }
-                sums
+                let base = (k * CHUNK) as u32;
+                let mean = |r: &Range<u32>| {
+                    mean_of(&t_chunk[(r.start - base) as usize..(r.end - base) as usize])
+                };
+                let hottest = watch_points(points, &runs[first..], hot, dt, mean);
+                (sums, hottest)
             })
             .collect();
+        let mut hottest = partial.iter().map(|p| p.1).fold(f64::NAN, f64::max);
+        if let Some((w, cut)) = watched {
+            let t = &self.t;
+            let mean = |r: &Range<u32>| mean_of(&t[r.start as usize..r.end as usize]);
+            for k in cut.across() {
+                let one = std::slice::from_mut(&mut w.points[k]);
+                hottest = hottest.max(watch_points(one, &self.runs.runs[k..], hot, dt, mean));
+            }
+        }
         self.interface(&before, cp.inv_cap, c.inv_cap);
         std::mem::swap(&mut self.phi, &mut self.phi_next);
         let mut sums = [0.0f64; 3];
-        for p in &partial {
+        for (p, _) in &partial {
             for (acc, x) in sums.iter_mut().zip(p) {
                 *acc += *x as f64;
             }
@@ -1068,6 +1125,10 @@ impl VoxelModel {
         self.ledger.table += dt * c.h_table as f64 * sums[2];
         self.updates += self.h.len() as u64;
         self.steps += 1;
+        match apart {
+            Some(w) => self.observe(w.laid, dt, w.points),
+            None => hottest,
+        }
     }
 
     /// The faces where deposit meets a plate of its own material: the kernel conducted them on
@@ -1163,7 +1224,12 @@ impl VoxelModel {
     }
 
     /// Goldak's double-ellipsoid weights of deposit `d`'s heat on the active voxels around
-    /// `pool`.
+    /// `pool`, cut where the exponent passes 27 along any of the ellipsoid's axes (three
+    /// semi-axes: e^-27 ≈ 2e-12 of the peak; Goldak et al. 1984 put the semi-axes where the
+    /// density is e^-3 ≈ 5 % of it). The
+    /// cells looked at are the box around that cut, not a cube of 3·c_r about the pool, which
+    /// looked up every cell of it and handed each step thousands of voxels weighed zero in f32
+    /// (docs/PERFORMANCE.md, "Two cores").
     fn ellipsoid(
         &self,
         d: &Deposit,
@@ -1178,13 +1244,30 @@ impl VoxelModel {
             cr: Goldak::rear(d.width),
         };
         let dx = self.settings.size;
-        let reach = 3.0 * g.cr + dx;
+        // The cut in the source's own axes: along the tangent, across, and along the build
+        // axis (depth below the pool, and as far above, where its own metal may lie).
+        let axes = [tangent, across, d.axis];
+        let cut = [
+            [-3.0 * g.cr, 3.0 * g.cf],
+            [-3.0 * g.a, 3.0 * g.a],
+            [-3.0 * g.b, 3.0 * g.b],
+        ];
+        let inside = |r: [f64; 3]| {
+            (0..3).all(|l| {
+                let x = dot(r, axes[l]);
+                x >= cut[l][0] && x <= cut[l][1]
+            })
+        };
+        let (lo, hi) = cut_box(axes, cut, pool, dx).unwrap_or_else(|| {
+            let reach = 3.0 * g.cr + dx;
+            (pool.map(|p| p - reach), pool.map(|p| p + reach))
+        });
         let lo: [isize; 3] =
-            std::array::from_fn(|k| ((pool[k] - reach - self.origin[k]) / dx).floor() as isize);
+            std::array::from_fn(|k| ((lo[k] - self.origin[k]) / dx).floor() as isize);
         let hi: [isize; 3] =
-            std::array::from_fn(|k| ((pool[k] + reach - self.origin[k]) / dx).ceil() as isize);
-        // The box is tens of thousands of cells at fine voxels, once per deposit: its slices go
-        // to the threads and come back in order, so the weights are the same on any number.
+            std::array::from_fn(|k| ((hi[k] - self.origin[k]) / dx).ceil() as isize);
+        // The box is thousands of cells at fine voxels, once per deposit: its slices go to the
+        // threads and come back in order, so the weights are the same on any number.
         let slices: Vec<Vec<(u32, f64)>> = (lo[2].max(0)..=hi[2].min(self.dims[2] as isize - 1))
             .into_par_iter()
             .map(|iz| {
@@ -1192,10 +1275,13 @@ impl VoxelModel {
                 for iy in lo[1].max(0)..=hi[1].min(self.dims[1] as isize - 1) {
                     for ix in lo[0].max(0)..=hi[0].min(self.dims[0] as isize - 1) {
                         let (ix, iy, iz) = (ix as usize, iy as usize, iz as usize);
+                        let r = sub(self.centre(ix, iy, iz), pool);
+                        if !inside(r) {
+                            continue;
+                        }
                         let Some(&v) = self.index.get(&self.flat(ix, iy, iz)) else {
                             continue;
                         };
-                        let r = sub(self.centre(ix, iy, iz), pool);
                         let wt = g.weight(dot(r, tangent), dot(r, across), dot(r, d.axis).min(0.0));
                         if wt > 0.0 {
                             w.push((v, wt));
@@ -1471,14 +1557,19 @@ impl VoxelRun {
             return self.advance_on_gpu(dt, source_on);
         }
         let source: &[(u32, f32)] = if source_on { &self.source } else { &[] };
-        self.model.step(dt, source);
-        self.now += dt;
         let laid = self.laid + usize::from(source_on);
-        self.observe(laid, dt);
+        let points = &mut self.points;
+        let hottest = self
+            .model
+            .step_watched(dt, source, Some(Watch { laid, points }));
+        self.now += dt;
+        let on = self.model.settings.trace_hottest;
+        self.hottest.push(on, self.now, hottest);
         self.record(laid);
     }
 
     /// The laid metal's peaks and times above after a step of dt, and the hottest of it.
+    #[cfg(feature = "gpu")]
     fn observe(&mut self, laid: usize, dt: f64) {
         let hottest = self.model.observe(laid, dt, &mut self.points);
         let on = self.model.settings.trace_hottest;
@@ -1845,6 +1936,34 @@ fn fine_columns(deps: &[Deposit], m: &VoxelModel) -> HashSet<(usize, usize)> {
 }
 
 /// Distance from point p to the segment ab, in the plane.
+/// The world box around the points r = p − `pool` with `cut[l][0]` ≤ r·`axes[l]` ≤
+/// `cut[l][1]` (a parallelepiped; the axes need not be orthogonal), widened by `pad`; None
+/// where the axes are near parallel and it has no bounded box worth the name.
+fn cut_box(
+    axes: [[f64; 3]; 3],
+    cut: [[f64; 2]; 3],
+    pool: [f64; 3],
+    pad: f64,
+) -> Option<([f64; 3], [f64; 3])> {
+    // r = Σ u_l·d_l/det, the d_l the inverse's columns (the other two axes crossed).
+    let [a, b, c] = axes;
+    let dual = [cross(b, c), cross(c, a), cross(a, b)];
+    let det = dot(a, dual[0]);
+    if det.is_nan() || det.abs() < 1e-3 {
+        return None;
+    }
+    let (mut lo, mut hi) = (pool, pool);
+    for corner in 0..8 {
+        let u: [f64; 3] = std::array::from_fn(|l| cut[l][(corner >> l) & 1] / det);
+        for k in 0..3 {
+            let r = (0..3).map(|l| u[l] * dual[l][k]).sum::<f64>();
+            lo[k] = lo[k].min(pool[k] + r - pad);
+            hi[k] = hi[k].max(pool[k] + r + pad);
+        }
+    }
+    Some((lo, hi))
+}
+
 fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let (ab, ap) = ([b[0] - a[0], b[1] - a[1]], [p[0] - a[0], p[1] - a[1]]);
     let len2 = ab[0] * ab[0] + ab[1] * ab[1];
@@ -2061,6 +2180,131 @@ mod tests {
             }
             same_bits_on_one_thread_or_two(&deps, &settings);
         }
+    }
+
+    /// Goldak's ellipsoid cut at three semi-axes keeps every voxel the whole active set weighs
+    /// above 2e-12 of the peak, and its total to 1e-10: deposits of a climbing helix (a tangent
+    /// not square to the axis) and the same with the axis tilted 17°.
+    #[test]
+    fn the_ellipsoid_cut_keeps_the_source() {
+        let (deps, settings) = three_revolutions(100.0);
+        let mut m = VoxelModel::new(&deps, &settings).unwrap();
+        m.lay_all(&deps);
+        for i in [5, 70, 150] {
+            for tilt in [0.0, 0.3] {
+                let mut d = deps[i];
+                d.axis = normalize([tilt, 0.0, 1.0]);
+                let tangent = normalize(sub(d.position, segment_start(&deps, i)));
+                let across = normalize(cross(d.axis, tangent));
+                let pool = sub(d.position, scale(d.axis, m.sink[i]));
+                let cut = m.ellipsoid(&d, pool, tangent, across);
+                let g = Goldak {
+                    a: d.width / 2.0,
+                    b: d.height.max(m.settings.size),
+                    cf: d.width / 2.0,
+                    cr: Goldak::rear(d.width),
+                };
+                let all: Vec<(u32, f64)> = (0..m.h.len() as u32)
+                    .map(|v| {
+                        let r = sub(m.centre_of(v), pool);
+                        let depth = dot(r, d.axis).min(0.0);
+                        (v, g.weight(dot(r, tangent), dot(r, across), depth))
+                    })
+                    .filter(|&(_, w)| w > 0.0)
+                    .collect();
+                let peak = all.iter().map(|x| x.1).fold(0.0, f64::max);
+                let kept: HashSet<u32> = cut.iter().map(|x| x.0).collect();
+                assert!(cut.len() > 10 && kept.len() == cut.len());
+                for &(v, w) in &all {
+                    assert!(
+                        kept.contains(&v) || w < 2e-12 * peak,
+                        "voxel {v}: {w} of {peak}"
+                    );
+                }
+                let total = |w: &[(u32, f64)]| w.iter().map(|x| x.1).sum::<f64>();
+                let (a, b) = (total(&cut), total(&all));
+                assert!((a - b).abs() < 1e-10 * b, "{i} {tilt}: {a} against {b}");
+                assert!(cut.len() < all.len(), "the cut drops the far voxels");
+            }
+        }
+    }
+
+    /// A step that reads the laid metal in the chunks' tasks (`step_watched`) gives the peaks,
+    /// times above and hottest of a step then `observe`, to the bit: on a finished part cooling
+    /// from its deposit temperature, every deposit laid and half of them, deposits inside one
+    /// chunk and across two; where a deposit's voxels are not one run, and on a plate of
+    /// another material (both read apart).
+    #[test]
+    fn a_watched_step_reads_the_metal_as_observe_does() {
+        // A plate whose voxels end short of a chunk's end, so that the wall's cross it.
+        let finished = |mm: f64, plate: Option<Material>| {
+            let (deps, mut settings) = three_revolutions(mm);
+            settings.plate.material = plate;
+            let mut m = VoxelModel::new(&deps, &settings).unwrap();
+            m.lay_all(&deps);
+            let chunks = m.h.len().div_ceil(CHUNK);
+            let across = m
+                .runs
+                .clone()
+                .cut(&m.laid, deps.len(), chunks)
+                .unwrap()
+                .across()
+                .count();
+            (across > 0).then_some((deps, m))
+        };
+        let (deps, base) = (190..=210)
+            .step_by(2)
+            .find_map(|mm| finished(mm as f64, None))
+            .unwrap();
+        let (_, in718) = (190..=210)
+            .step_by(2)
+            .find_map(|mm| finished(mm as f64, Some(Material::in718())))
+            .unwrap();
+        let dt = base.stable_step();
+        let ambient = PointResult {
+            peak: 293.15,
+            ..PointResult::default()
+        };
+        let mut scrambled = base.clone();
+        let k = scrambled.laid.iter().position(|v| v.len() > 2).unwrap();
+        scrambled.laid[k].reverse();
+        let cases = [
+            (&base, deps.len()),
+            (&base, deps.len() / 2),
+            (&scrambled, 40),
+            (&in718, deps.len()),
+        ];
+        for (model, laid) in cases {
+            let (mut a, mut b) = (model.clone(), model.clone());
+            let (mut pa, mut pb) = (vec![ambient; deps.len()], vec![ambient; deps.len()]);
+            for _ in 0..30 {
+                a.step(dt, &[]);
+                let ha = a.observe(laid, dt, &mut pa);
+                let points = &mut pb;
+                let hb = b.step_watched(dt, &[], Some(Watch { laid, points }));
+                assert_eq!(ha.to_bits(), hb.to_bits());
+            }
+            assert_eq!(pa, pb);
+            assert!(pa[..laid].iter().any(|p| p.time_above > 0.0));
+            assert!(pa[laid..].iter().all(|p| *p == ambient));
+            assert_eq!(a.h, b.h);
+        }
+        // Both kinds of deposit were read: inside a chunk, and across two.
+        let chunks = base.h.len().div_ceil(CHUNK);
+        let cut = base
+            .runs
+            .clone()
+            .cut(&base.laid, deps.len(), chunks)
+            .unwrap();
+        assert!(cut.across().count() > 0);
+        assert!(cut.bounds.iter().filter(|(a, b)| b > a).count() > 1);
+        assert!(
+            scrambled
+                .runs
+                .clone()
+                .cut(&scrambled.laid, 40, chunks)
+                .is_none()
+        );
     }
 
     /// One thread, or a set of fewer than 2·`CHUNKS_PER_TASK` chunks, is one task; two threads
