@@ -93,10 +93,7 @@ impl Runs {
 
 impl Cut {
     /// Each chunk's deposits' points, with the first's index.
-    pub(super) fn pieces<'p>(
-        &self,
-        points: &'p mut [PointResult],
-    ) -> Vec<(usize, &'p mut [PointResult])> {
+    pub(super) fn pieces<'p>(&self, points: &'p mut [PointResult]) -> Pieces<'p> {
         let (mut rest, mut at) = (points, 0);
         self.bounds
             .iter()
