@@ -1226,10 +1226,9 @@ impl VoxelModel {
     /// Goldak's double-ellipsoid weights of deposit `d`'s heat on the active voxels around
     /// `pool`, cut where the exponent passes 27 along any of the ellipsoid's axes (three
     /// semi-axes: e^-27 ≈ 2e-12 of the peak; Goldak et al. 1984 put the semi-axes where the
-    /// density is e^-3 ≈ 5 % of it). The
-    /// cells looked at are the box around that cut, not a cube of 3·c_r about the pool, which
-    /// looked up every cell of it and handed each step thousands of voxels weighed zero in f32
-    /// (docs/PERFORMANCE.md, "Two cores").
+    /// density is e^-3 ≈ 5 % of it). The cells looked at are the box around that cut, not a cube
+    /// of 3·c_r about the pool, which looked up every cell of it and handed each step thousands
+    /// of voxels weighed zero in f32 (docs/PERFORMANCE.md, "Two cores").
     fn ellipsoid(
         &self,
         d: &Deposit,
@@ -1935,7 +1934,6 @@ fn fine_columns(deps: &[Deposit], m: &VoxelModel) -> HashSet<(usize, usize)> {
     out
 }
 
-/// Distance from point p to the segment ab, in the plane.
 /// The world box around the points r = p − `pool` with `cut[l][0]` ≤ r·`axes[l]` ≤
 /// `cut[l][1]` (a parallelepiped; the axes need not be orthogonal), widened by `pad`; None
 /// where the axes are near parallel and it has no bounded box worth the name.
@@ -1964,6 +1962,7 @@ fn cut_box(
     Some((lo, hi))
 }
 
+/// Distance from point p to the segment ab, in the plane.
 fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let (ab, ap) = ([b[0] - a[0], b[1] - a[1]], [p[0] - a[0], p[1] - a[1]]);
     let len2 = ab[0] * ab[0] + ab[1] * ab[1];
