@@ -16,6 +16,7 @@
 #[cfg(feature = "gpu")]
 mod gpu;
 mod kernel;
+mod team;
 mod watch;
 
 #[cfg(feature = "gpu")]
@@ -42,8 +43,8 @@ use kernel::{Chunk, Coefficients, Geometry, Group, Tables};
 use rayon::prelude::*;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::ops::Range;
-use std::sync::Arc;
-use watch::{Pieces, Runs, Watch, mean_of, watch_points};
+use std::sync::{Arc, Mutex, OnceLock};
+use watch::{Pieces, Runs, Slices, Watch, mean_of, watch_points};
 
 /// Active voxels per chunk: the unit of the ledger's partial sums, so results do not depend on
 /// how chunks are spread over threads.
@@ -56,12 +57,12 @@ const CHUNKS_PER_TASK: usize = 4;
 const OBSERVED_PER_TASK: usize = if cfg!(test) { 16 } else { 1024 };
 
 /// Chunks per task of a step over `chunks` chunks on `threads` threads: one task on one thread
-/// or for a set under 2·`CHUNKS_PER_TASK` chunks; else one chunk a task, so that a thread done
-/// early takes the other's next. Cut by count into a few pieces (rayon's splitter cuts again
-/// only where a piece is stolen), the threads' shares cost unequal time: the plate's voxels,
-/// first in the active set, step in regular groups of eight, the deposit's by scalar loads of
-/// their neighbours (docs/PERFORMANCE.md, "Two cores"; eight tasks a thread measured slower
-/// than one chunk a task).
+/// or for a set under 2·`CHUNKS_PER_TASK` chunks; else one chunk a task, shared out by `team`
+/// (each thread from its own end of the set), so that a thread done early takes the other's
+/// next. Cut by count into a few pieces, the threads' shares cost unequal time: the plate's
+/// voxels, first in the active set, step in regular groups of eight, the deposit's by scalar
+/// loads of their neighbours (docs/PERFORMANCE.md, "Two cores"; eight tasks a thread measured
+/// slower than one chunk a task).
 fn chunks_per_task(chunks: usize, threads: usize) -> usize {
     match threads < 2 || chunks < 2 * CHUNKS_PER_TASK {
         true => chunks.max(1),
@@ -1050,57 +1051,70 @@ impl VoxelModel {
             Some((ref mut w, ref cut)) => (cut.pieces(&mut w.points[..w.laid]), &self.runs.runs),
             None => ((0..chunks).map(|_| (0, &mut [][..])).collect(), &[]),
         };
-        let partial: Vec<([f32; 3], f64)> = self
+        // Each chunk's slices, taken by the thread that steps it, and what it returns, kept by
+        // its index (`team`).
+        let slices: Vec<Mutex<Option<Slices>>> = self
             .h
-            .par_chunks_mut(CHUNK)
-            .zip(self.t.par_chunks_mut(CHUNK))
-            .zip(self.phi_next.par_chunks_mut(CHUNK))
+            .chunks_mut(CHUNK)
+            .zip(self.t.chunks_mut(CHUNK))
+            .zip(self.phi_next.chunks_mut(CHUNK))
             .zip(pieces)
-            .enumerate()
-            .with_min_len(per_task)
-            .with_max_len(per_task)
-            .map(|(k, (((mut h, t_chunk), mut phi_next), (first, points)))| {
-                let mut sums = [0.0f32; 3];
-                let mut t = &mut *t_chunk;
-                for (r, region) in spans(k * CHUNK..k * CHUNK + h.len(), bounds) {
-                    let n = r.len();
-                    let (h_r, h_rest) = std::mem::take(&mut h).split_at_mut(n);
-                    let (t_r, t_rest) = std::mem::take(&mut t).split_at_mut(n);
-                    let (p_r, p_rest) = std::mem::take(&mut phi_next).split_at_mut(n);
-                    (h, t, phi_next) = (h_rest, t_rest, p_rest);
-                    // Groups start at multiples of 8; a span that does not (the few deposit
-                    // voxels after the plate's last) goes to the plain kernel.
-                    let whole = match r.start % 8 {
-                        0 => &groups[r.start / 8..(r.end / 8).min(groups.len())],
-                        _ => &[],
-                    };
-                    let g = Geometry {
-                        neighbours: std::array::from_fn(|f| &nb[f][r.clone()]),
-                        groups: whole,
-                        exposed: &exposed[r.clone()],
-                        table: &table[r.clone()],
-                    };
-                    let s = Chunk {
-                        first: r.start,
-                        h: h_r,
-                        t: t_r,
-                        phi_next: p_r,
-                    };
-                    let (c, tables) = regions[region];
-                    // SAFETY: the neighbour invariant of `VoxelModel::neighbours`; `simd` comes
-                    // from `simd_available` (or is false).
-                    let part = unsafe { kernel::update(c, tables, phi, &g, s, simd) };
-                    for (acc, x) in sums.iter_mut().zip(part) {
-                        *acc += x;
-                    }
-                }
-                let base = (k * CHUNK) as u32;
-                let mean = |r: &Range<u32>| {
-                    mean_of(&t_chunk[(r.start - base) as usize..(r.end - base) as usize])
+            .map(|(((h, t), phi_next), piece)| Mutex::new(Some((h, t, phi_next, piece))))
+            .collect();
+        let stepped: Vec<OnceLock<([f32; 3], f64)>> =
+            (0..chunks).map(|_| OnceLock::new()).collect();
+        let chunk = |k: usize| {
+            let taken = slices[k].lock().unwrap_or_else(|e| e.into_inner()).take();
+            let (mut h, t_chunk, mut phi_next, (first, points)) =
+                taken.expect("each chunk is stepped once");
+            let mut sums = [0.0f32; 3];
+            let mut t = &mut *t_chunk;
+            for (r, region) in spans(k * CHUNK..k * CHUNK + h.len(), bounds) {
+                let n = r.len();
+                let (h_r, h_rest) = std::mem::take(&mut h).split_at_mut(n);
+                let (t_r, t_rest) = std::mem::take(&mut t).split_at_mut(n);
+                let (p_r, p_rest) = std::mem::take(&mut phi_next).split_at_mut(n);
+                (h, t, phi_next) = (h_rest, t_rest, p_rest);
+                // Groups start at multiples of 8; a span that does not (the few deposit
+                // voxels after the plate's last) goes to the plain kernel.
+                let whole = match r.start % 8 {
+                    0 => &groups[r.start / 8..(r.end / 8).min(groups.len())],
+                    _ => &[],
                 };
-                let hottest = watch_points(points, &runs[first..], hot, dt, mean);
-                (sums, hottest)
-            })
+                let g = Geometry {
+                    neighbours: std::array::from_fn(|f| &nb[f][r.clone()]),
+                    groups: whole,
+                    exposed: &exposed[r.clone()],
+                    table: &table[r.clone()],
+                };
+                let s = Chunk {
+                    first: r.start,
+                    h: h_r,
+                    t: t_r,
+                    phi_next: p_r,
+                };
+                let (c, tables) = regions[region];
+                // SAFETY: the neighbour invariant of `VoxelModel::neighbours`; `simd` comes
+                // from `simd_available` (or is false).
+                let part = unsafe { kernel::update(c, tables, phi, &g, s, simd) };
+                for (acc, x) in sums.iter_mut().zip(part) {
+                    *acc += x;
+                }
+            }
+            let base = (k * CHUNK) as u32;
+            let mean = |r: &Range<u32>| {
+                mean_of(&t_chunk[(r.start - base) as usize..(r.end - base) as usize])
+            };
+            let hottest = watch_points(points, &runs[first..], hot, dt, mean);
+            let _ = stepped[k].set((sums, hottest));
+        };
+        match per_task < chunks {
+            true => team::step(chunks, &chunk),
+            false => (0..chunks).for_each(chunk),
+        }
+        let partial: Vec<([f32; 3], f64)> = stepped
+            .into_iter()
+            .map(|s| s.into_inner().expect("every chunk is stepped"))
             .collect();
         let mut hottest = partial.iter().map(|p| p.1).fold(f64::NAN, f64::max);
         if let Some((w, cut)) = watched {
