@@ -7,9 +7,10 @@
 //! side by side at twice the throughput of one. Here the thread that drives the run takes chunks
 //! from the front of the set and the helpers from the back, until they meet: each core steps
 //! about the same voxels every step, and a thread done early still takes the other's next
-//! chunk. Measured: two threads 1.91× one (median of six rounds) where rayon got 1.61×; the
-//! helpers' sleeps between steps taken out alone, with chunks still handed out from one end,
-//! gained nothing (docs/PERFORMANCE.md, "Two cores", "Each core its own end").
+//! chunk. Measured on the issue-19 cylinder: two threads faster than rayon's in six rounds of
+//! six, 1.76× one thread where rayon got 1.58× (medians); the helpers' sleeps between steps
+//! taken out alone, with the chunks still handed out from one end, gained in some rounds and
+//! lost in others (docs/PERFORMANCE.md, "Two cores", "Each core its own end").
 //!
 //! The helpers are threads of their own, started at the first step that is shared out and kept
 //! for the process; between steps they spin for at most `SPIN`, then park. One run steps on them
