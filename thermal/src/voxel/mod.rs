@@ -2,16 +2,16 @@
 //! for checking the thin-wall model. Only active voxels (deposited metal and the plate) are
 //! stored, each with its six neighbours; a step visits the active set alone. Explicit in time at
 //! the stability limit, f32 state, enthalpy update (latent heat included) with conduction on the
-//! Kirchhoff potential (`kernel`), rayon over fixed chunks of the active set (the same arithmetic
-//! on one thread or two); the same tasks read the laid metal's peaks (`watch`). Beads settle on
-//! what they lie on (`settle`). The arc's heat is a Goldak double ellipsoid (Goldak, Chakravarti,
-//! Bibby 1984), cut at three semi-axes and scaled so that its discrete sum is exactly the heat
-//! of the segment. The plate may be of its own material (`substrate`): its
-//! voxels come first in the active set and step with its tables; the faces where deposit meets
-//! plate are corrected after each step to a conductance in series. Away from the metal laid on
-//! it, the plate may be coarsened (`VoxelSettings::coarse_plate`): blocks of 2 × 2 × 2 cells,
-//! switched on before anything else, step as cells of edge 2·dx, and meet cells of edge dx
-//! across `seams` (docs/PHYSICS.md "A coarsened plate").
+//! Kirchhoff potential (`kernel`), fixed chunks of the active set shared by threads (`team`,
+//! the same arithmetic on one thread or two); the same tasks read the laid metal's peaks
+//! (`watch`). Beads settle on what they lie on (`settle`). The arc's heat is a Goldak double
+//! ellipsoid (Goldak, Chakravarti, Bibby 1984), cut at three semi-axes and scaled so that its
+//! discrete sum is exactly the heat of the segment. The plate may be of its own material
+//! (`substrate`): its voxels come first in the active set and step with its tables; the faces
+//! where deposit meets plate are corrected after each step to a conductance in series. Away
+//! from the metal laid on it, the plate may be coarsened (`VoxelSettings::coarse_plate`):
+//! blocks of 2 × 2 × 2 cells, switched on before anything else, step as cells of edge 2·dx,
+//! and meet cells of edge dx across `seams` (docs/PHYSICS.md "A coarsened plate").
 
 #[cfg(feature = "gpu")]
 mod gpu;
@@ -44,11 +44,20 @@ use rayon::prelude::*;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
-use watch::{Pieces, Runs, Slices, Watch, mean_of, watch_points};
+use watch::{Pieces, Runs, Watch, mean_of, watch_points};
 
 /// Active voxels per chunk: the unit of the ledger's partial sums, so results do not depend on
 /// how chunks are spread over threads.
 const CHUNK: usize = 4096;
+
+/// A chunk's share of a step: its slices of h, T and the next Φ, and its piece of the watch
+/// (`watch::Pieces`), taken by the thread that steps it.
+type Slices<'s> = (
+    &'s mut [f32],
+    &'s mut [f32],
+    &'s mut [f32],
+    (usize, &'s mut [PointResult]),
+);
 /// A step over fewer than twice this many chunks runs as one task: it costs less than handing
 /// work to another thread (measured: a 16 000-voxel set ran slower on two threads than on one).
 const CHUNKS_PER_TASK: usize = 4;

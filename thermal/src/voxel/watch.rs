@@ -11,14 +11,6 @@ use std::ops::Range;
 /// Each chunk's deposits' points, with the first's index (`Cut::pieces`).
 pub(super) type Pieces<'p> = Vec<(usize, &'p mut [PointResult])>;
 
-/// A chunk's share of a step: its slices of h, T and the next Φ, and its piece of the watch.
-pub(super) type Slices<'s> = (
-    &'s mut [f32],
-    &'s mut [f32],
-    &'s mut [f32],
-    (usize, &'s mut [PointResult]),
-);
-
 /// What a step reads of the laid metal (`VoxelModel::step_watched`): deposits 0..`laid`'s
 /// peaks and times above the hot threshold, into `points`.
 pub(super) struct Watch<'a> {
