@@ -171,15 +171,18 @@ where
 
 fn draw(series: &Series, out: &str) -> Drawn {
     let _ = plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES);
-    let staged = format!("{out}.partial.png");
+    let size = (1400, 560);
+    let mut rgb = vec![255u8; (size.0 * size.1 * 3) as usize];
     {
-        let area = BitMapBackend::new(&staged, (1400, 560)).into_drawing_area();
+        let area = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
         area.fill(&WHITE)?;
         let (left, right) = area.split_horizontally(700);
         panel(&left, series, "wall time, s", |r| r.wall_s)?;
         panel(&right, series, "peak memory, MB", |r| r.peak_mb)?;
         area.present()?;
     }
+    let staged = format!("{out}.partial.png");
+    sim::record::write_png(std::path::Path::new(&staged), &rgb, size)?;
     std::fs::rename(&staged, out)?;
     Ok(())
 }

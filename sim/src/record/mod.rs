@@ -37,6 +37,7 @@ pub use colour::{Colour, temperature_colour};
 #[cfg(feature = "recording")]
 pub use plots::{
     Case, interlayer_map, pareto_plot, probe_plot, solidification_plot, standoff_plot, study_plots,
+    write_png,
 };
 pub use scene::{
     Event, Frame, HOTTEST_SAMPLES, History, Level, PointRecord, Probe, Run, Scene, probe,

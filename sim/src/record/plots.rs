@@ -57,17 +57,43 @@ impl Sink for PlotSink {
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 type Drawn = std::result::Result<(), Box<dyn std::error::Error>>;
 
-/// Draw into a staged PNG and rename it into place.
+/// Draw into an RGB image, write it as a staged PNG and rename it into place.
 fn draw(dir: &mut RunDir, name: &str, f: impl FnOnce(&Area) -> Drawn) -> Result<()> {
     register_font();
-    let staged = dir.stage(name);
+    let mut rgb = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
     {
-        let area = BitMapBackend::new(&staged, SIZE).into_drawing_area();
+        let area = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
         area.fill(&WHITE).map_err(fail)?;
         f(&area).map_err(fail)?;
         area.present().map_err(fail)?;
     }
+    let staged = dir.stage(name);
+    if let Err(e) = write_png(&staged, &rgb, SIZE) {
+        let _ = std::fs::remove_file(&staged);
+        return Err(Error::failure(format!(
+            "cannot write {}: {e}",
+            staged.display()
+        )));
+    }
     dir.commit(&staged, name)?;
+    Ok(())
+}
+
+/// An 8-bit RGB image (rows top down, `width · height · 3` bytes) as a PNG file. The `png`
+/// crate directly, rather than plotters' encoder, which stands on an older `image` than
+/// rerun's: one PNG encoder in the build, not two.
+pub fn write_png(
+    path: &std::path::Path,
+    rgb: &[u8],
+    (width, height): (u32, u32),
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let mut png = png::Encoder::new(file, width, height);
+    png.set_color(png::ColorType::Rgb);
+    png.set_depth(png::BitDepth::Eight);
+    let mut writer = png.write_header()?;
+    writer.write_image_data(rgb)?;
+    writer.finish()?;
     Ok(())
 }
 
