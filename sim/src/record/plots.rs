@@ -866,6 +866,25 @@ mod tests {
         assert!((h[0].0 - 1.825).abs() < 1e-12);
     }
 
+    /// What `write_png` writes decodes to the pixels it was given, in their order (rows top
+    /// down, RGB), at 8 bits.
+    #[test]
+    fn a_written_png_reads_back_to_the_same_pixels() {
+        let (w, h) = (7u32, 5u32);
+        let rgb: Vec<u8> = (0..w * h * 3).map(|k| (k * 37 % 251) as u8).collect();
+        let path = std::env::temp_dir().join(format!("waamtwin-png-{}.png", std::process::id()));
+        super::write_png(&path, &rgb, (w, h)).unwrap();
+        let file = std::io::BufReader::new(std::fs::File::open(&path).unwrap());
+        let mut reader = png::Decoder::new(file).read_info().unwrap();
+        let mut back = vec![0u8; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut back).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!((info.width, info.height), (w, h));
+        assert_eq!(info.color_type, png::ColorType::Rgb);
+        assert_eq!(info.bit_depth, png::BitDepth::Eight);
+        assert_eq!(&back[..info.buffer_size()], &rgb[..]);
+    }
+
     #[test]
     fn the_embedded_font_is_valid() {
         assert!(
