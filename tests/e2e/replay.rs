@@ -27,8 +27,9 @@ fn run_ok(command: &str, scenario: &str, name: &str, json: &str) -> (PathBuf, se
 /// The GAMMA IN718 wall with the authors' parameters: every IR point compared where it reads,
 /// and the agreement as measured on 2026-11-22 (RMS 177 °C on the authors' carbon-steel plate,
 /// 164 °C on an IN718 one; the model cooler than the IR throughout; docs/PHYSICS.md,
-/// "Measured builds"). The bound fails if the replay loses the
-/// wall, its heat or the probes' places.
+/// "Measured builds"), the same to 0.1 °C with the plate coarsened as the scenario has it
+/// since 2026-11-28. The bound fails if the replay loses the wall, its heat or the probes'
+/// places.
 #[test]
 #[cfg_attr(
     not(validation_data),
@@ -88,7 +89,8 @@ fn gamma_wall_against_its_ir_camera() {
 /// The GAMMA wall's four substrate thermocouples (positions inferred, on the plate's bottom
 /// face) under the authors' carbon-steel plate, as measured on 2026-11-22: RMS 16 °C, the model
 /// 8–11 °C low on average; its plate turns over at ~380 s where the thermocouples still rise
-/// (docs/PHYSICS.md). The bound fails if the plate's material, its heat or the probes' places
+/// (docs/PHYSICS.md); within 0.41 °C of that with the plate coarsened, as the scenario has it
+/// since 2026-11-28. The bound fails if the plate's material, its heat or the probes' places
 /// go wrong: the thermocouples read 25 → 85–95 °C.
 #[test]
 #[cfg_attr(
@@ -146,9 +148,10 @@ fn a_bad_toolpath_line_is_named() {
 }
 
 /// The GAMMA wall calibrated on the first half of its build and judged on the second, as
-/// measured on 2026-11-22 (on the authors' carbon-steel plate): absorptivity 0.580, h 5.9
-/// W/(m² K), emissivity 0.367; RMS 170 → 104 °C on the fit window, 179 → 54 °C held out;
-/// 17 runs, the last two resumed from the fit's end, 96 s.
+/// measured on 2026-11-28 (on the authors' carbon-steel plate, coarsened away from the wall):
+/// absorptivity 0.580, h 5.8 W/(m² K), emissivity 0.368; RMS 170 → 104 °C on the fit window,
+/// 179 → 54 °C held out; 17 runs, the last two resumed from the fit's end, 48 s (100 s with
+/// every plate cell at 1 mm).
 #[test]
 #[cfg_attr(
     not(validation_data),
@@ -306,7 +309,9 @@ fn gamma_on_an_in718_box(model: &str) -> (PathBuf, PathBuf) {
     let text = std::fs::read_to_string(root().join("scenarios/gamma_in718_wall.toml"))
         .unwrap()
         .replace("model = \"voxel\"", &format!("model = \"{model}\""))
-        .replace("plate_shape = \"disc\"", "");
+        .replace("plate_shape = \"disc\"", "")
+        // Every plate cell at the voxel's edge, as the agreement below was measured.
+        .replace("coarse_plate = true\n", "");
     // One material throughout: the plate is the wall's IN718 here.
     let (head, rest) = text.split_once("[plate_material]").unwrap();
     let text = format!("{head}[thermal]{}", rest.split_once("[thermal]").unwrap().1);
