@@ -254,15 +254,9 @@ fn frame_bytes(deposits: usize, frames: usize) -> f64 {
     8.0 * (n * deposits) as f64
 }
 
-/// The voxel model's stable explicit step (its `stable_step`: ρ·c_min·dx²/(6·k_max) times the
-/// 0.9 margin), without building it.
+/// The voxel model's stable explicit step at the pipeline's margin, without building it.
 pub fn stable_step(m: &thermal::material::Material, dx: f64) -> f64 {
-    let (mut cmin, mut kmax) = (f64::INFINITY, 0.0f64);
-    for t in (250..3500).step_by(10) {
-        cmin = cmin.min(m.apparent_heat(t as f64));
-        kmax = kmax.max(m.conductivity(t as f64));
-    }
-    0.9 * m.density * cmin * dx * dx / (6.0 * kmax)
+    thermal::voxel::stable_step(m, dx, super::deposition::VOXEL_COURANT)
 }
 
 /// The kernel's speed-up on n threads, measured: 1.7 on 2 (docs/PERFORMANCE.md); beyond, the

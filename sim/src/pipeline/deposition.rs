@@ -18,7 +18,7 @@ pub(crate) const PLATE_LAYERS: usize = 3;
 const MAX_COOLING_STEP_S: f64 = 30.0;
 
 /// The voxel model's explicit step as a share of its stability limit.
-const VOXEL_COURANT: f64 = 0.9;
+pub(crate) const VOXEL_COURANT: f64 = 0.9;
 
 /// How the build is cooled, per path point: what the dwell planner decides. Empty vectors (or
 /// shorter ones) mean no dwell, the planned pace, no drop.
