@@ -10,13 +10,15 @@
 //! - [`run`]: the contract both heat models serve ([`HeatRun`], [`HeatModel`]) and the types
 //!   they share: per-point results, what a point lies on, field snapshots, the plate.
 //! - [`pool`]: the melt pool behind the torch, its tail interpolated between samples.
-//! - [`wall`]: the thin-wall model on the path's grid, with the substrate plate.
+//! - [`wall`]: the thin-wall model on the path's grid, with the substrate plate
+//!   (`plate_cells`: its cells, merged away from the part).
 //! - [`voxel`]: the 3-D voxel model, the reference for local detail.
 //! - [`error`]: what can go wrong, with the evidence.
 
 pub mod error;
 pub mod material;
 pub mod network;
+pub(crate) mod plate_cells;
 pub(crate) mod pool;
 pub mod rates;
 pub mod run;

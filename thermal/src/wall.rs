@@ -10,6 +10,7 @@
 use crate::error::ThermalError;
 use crate::material::Material;
 use crate::network::{Network, Surroundings};
+use crate::plate_cells::PlateCells;
 use crate::pool;
 use crate::rates::{LocalSteps, Reach, Torch, Window};
 use crate::run::{
@@ -124,6 +125,12 @@ fn layout(deps: &[Deposit], min_node: f64) -> Layout {
     l
 }
 
+/// How many cells the thin wall lays plate `p` out in under `deps` (its columns merged away
+/// from the metal laid on it), without building the model.
+pub fn plate_cells(p: &Plate, deps: &[Deposit]) -> usize {
+    PlateCells::new(p, deps).len()
+}
+
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct WallModel {
     pub network: Network,
@@ -133,6 +140,8 @@ pub struct WallModel {
     node_of: Arc<Vec<usize>>,
     n_wall: usize,
     positions: Arc<Vec<[f64; 3]>>,
+    /// Per plate cell: its side in the plate's cells (merged columns are 2 or 4).
+    plate_side: Arc<Vec<u8>>,
     /// Bead top area of each wall node, covered when a deposit is laid on it.
     top: Vec<f64>,
     /// Per deposit: the node it is laid on (a wall node or a plate cell).
@@ -161,27 +170,12 @@ impl WallModel {
         let l = layout(deps, s.min_node);
         let nw = l.first.len();
         let rho = s.material.density;
-        // Plate cells: nx × ny columns of `layers` cells through the thickness, top layer first.
-        let p = &s.plate;
-        let (nx, ny, nz) = (
-            ((p.size[0] / p.cell).round() as usize).max(1),
-            ((p.size[1] / p.cell).round() as usize).max(1),
-            p.layers.max(1),
-        );
-        let (cx, cy, cz) = (
-            p.size[0] / nx as f64,
-            p.size[1] / ny as f64,
-            p.size[2] / nz as f64,
-        );
-        let origin = [p.centre[0] - p.size[0] / 2.0, p.centre[1] - p.size[1] / 2.0];
-        let plate_id = |i: usize, j: usize, k: usize| nw + (k * ny + j) * nx + i;
-        let cell_id = |x: f64, y: f64| -> Option<usize> {
-            let i = ((x - origin[0]) / cx).floor();
-            let j = ((y - origin[1]) / cy).floor();
-            (i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny)
-                .then(|| plate_id(i as usize, j as usize, 0))
-        };
-        let n = nw + nx * ny * nz;
+        // Plate cells: columns of `layers` cells through the thickness, top layer first, merged
+        // in the plane away from the metal laid on it ([`PlateCells`]).
+        let plate = PlateCells::new(&s.plate, deps);
+        let cz = plate.cell[2];
+        let cell_id = |x: f64, y: f64| plate.top_at(x, y).map(|c| nw + c);
+        let n = nw + plate.len();
         let mut mass = Vec::with_capacity(n);
         let mut exposed = Vec::with_capacity(n);
         let mut contact = vec![0.0; n];
@@ -196,39 +190,19 @@ impl WallModel {
             exposed.push(2.0 * l.height[k] * l.length[k] + l.width[k] * l.length[k]);
             top.push(l.width[k] * l.length[k]);
         }
-        for k in 0..nz {
-            for j in 0..ny {
-                for i in 0..nx {
-                    mass.push(rho * cx * cy * cz);
-                    exposed.push(if k == 0 { cx * cy } else { 0.0 });
-                    if k == nz - 1 {
-                        contact[plate_id(i, j, k)] = cx * cy;
-                    }
-                    positions.push([
-                        origin[0] + (i as f64 + 0.5) * cx,
-                        origin[1] + (j as f64 + 0.5) * cy,
-                        -(k as f64 + 0.5) * cz,
-                    ]);
-                }
-            }
+        let mut plate_side = Vec::with_capacity(plate.len());
+        for (c, (m, top, table, centre, side)) in plate.cells(rho).enumerate() {
+            mass.push(m);
+            exposed.push(top);
+            contact[nw + c] = table;
+            positions.push(centre);
+            plate_side.push(side);
         }
-        let mut edges: Vec<(usize, usize, f64)> = Vec::new();
-        for k in 0..nz {
-            for j in 0..ny {
-                for i in 0..nx {
-                    let a = plate_id(i, j, k);
-                    if i + 1 < nx {
-                        edges.push((a, plate_id(i + 1, j, k), cz * cy / cx));
-                    }
-                    if j + 1 < ny {
-                        edges.push((a, plate_id(i, j + 1, k), cz * cx / cy));
-                    }
-                    if k + 1 < nz {
-                        edges.push((a, plate_id(i, j, k + 1), cx * cy / cz));
-                    }
-                }
-            }
-        }
+        let mut edges: Vec<(usize, usize, f64)> = plate
+            .edges()
+            .into_iter()
+            .map(|(a, b, g)| (nw + a, nw + b, g))
+            .collect();
         // Along the bead, but not across the travel between two tracks.
         for k in 0..nw.saturating_sub(1) {
             if deps[l.first[k + 1]].start.is_some() {
@@ -311,6 +285,7 @@ impl WallModel {
             node_of: Arc::new(l.node_of),
             n_wall: nw,
             positions: Arc::new(positions),
+            plate_side: Arc::new(plate_side),
             top,
             below,
             length: Arc::new(l.length),
@@ -475,8 +450,15 @@ impl WallRun {
 
     /// Keep each probe's temperature, at most every `probe_every` seconds.
     fn sample_probes(&mut self) {
-        let reach = self.settings.min_node.max(self.settings.plate.cell);
-        let (net, positions) = (&self.model.network, &self.model.positions);
+        let (min_node, cell) = (self.settings.min_node, self.settings.plate.cell);
+        let (net, positions, nw) = (
+            &self.model.network,
+            &self.model.positions,
+            self.model.n_wall,
+        );
+        // A merged plate cell reaches as far as its side.
+        let side = |k: usize| k.checked_sub(nw).map_or(1, |c| self.model.plate_side[c]);
+        let reach = |k: usize| min_node.max(cell * f64::from(side(k)));
         // Nodes switch on only when a deposit is laid: search again only then.
         let search = self.probes_searched_at != Some(self.laid);
         self.probes_searched_at = Some(self.laid);
@@ -485,7 +467,7 @@ impl WallRun {
                 *node = (0..net.len())
                     .filter(|&k| net.active[k])
                     .map(|k| (dist(positions[k], trace.position), k))
-                    .filter(|&(d, _)| d <= reach)
+                    .filter(|&(d, k)| d <= reach(k))
                     .min_by(|a, b| a.0.total_cmp(&b.0))
                     .map(|(_, k)| k);
             }

@@ -7,7 +7,6 @@
 //! Pure arithmetic on the schedule: no model is built, nothing is allocated for the cells, so a
 //! run too large for the machine is refused at once.
 
-use super::deposition::PLATE_LAYERS;
 use super::params::{ThermalModel, ThermalSettings};
 use thermal::schedule::Deposit;
 
@@ -178,14 +177,15 @@ pub fn estimate(
         }
         ThermalModel::ThinWall => {
             // Nodes group deposits at least `node_m` long (never fewer than one a deposit
-            // shorter); the plate is a grid of cells a few layers deep.
+            // shorter); the plate is a grid of cells a few layers deep, its columns merged
+            // away from the part (counted as the model will lay them out).
             let path: f64 = (0..deposits.len()).map(|i| segment(deposits, i)).sum();
             let wall = (path / t.node_m)
                 .ceil()
                 .clamp(1.0, deposits.len().max(1) as f64);
-            let [px, py, _] = t.plate_m;
-            let cell = t.plate_cell_m;
-            let plate = (px / cell).ceil() * (py / cell).ceil() * PLATE_LAYERS as f64;
+            let plate =
+                thermal::wall::plate_cells(&super::deposition::plate_of(t, deposits), deposits)
+                    as f64;
             let nodes = wall + plate;
             let steps = deposits.len() as f64;
             // Every node at every deposit, or (local steps) the near set at every deposit and

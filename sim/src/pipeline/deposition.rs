@@ -188,14 +188,7 @@ pub fn heat_model_of(
         emissivity: t.emissivity,
         table_w_m2k: t.table_contact_w_m2k,
     };
-    let plate = Plate {
-        size: t.plate_m,
-        centre: plate_centre(deposits),
-        cell: t.plate_cell_m,
-        layers: PLATE_LAYERS,
-        disc: t.plate_disc,
-        material: None,
-    };
+    let plate = plate_of(t, deposits);
     match t.model {
         ThermalModel::ThinWall => HeatModel::ThinWall(WallSettings {
             material,
@@ -250,6 +243,18 @@ fn local_steps(t: &ThermalSettings) -> LocalSteps {
 }
 
 /// The plate is centred under the first revolution (the deposits laid on it), m.
+/// The plate `t` describes, centred under the deposits laid on it.
+pub(crate) fn plate_of(t: &ThermalSettings, deposits: &[Deposit]) -> Plate {
+    Plate {
+        size: t.plate_m,
+        centre: plate_centre(deposits),
+        cell: t.plate_cell_m,
+        layers: PLATE_LAYERS,
+        disc: t.plate_disc,
+        material: None,
+    }
+}
+
 pub fn plate_centre(deposits: &[Deposit]) -> [f64; 2] {
     let first: Vec<&Deposit> = deposits.iter().filter(|d| d.support.is_none()).collect();
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
