@@ -408,8 +408,10 @@ mod tests {
     }
 
     /// The thin wall with local steps: the near set at every deposit and a few steps a node
-    /// and layer, below every node at every deposit (a third of it here, as measured at
-    /// R 200); the layers counted down the chain of supports.
+    /// and layer, below every node at every deposit (a third of it as measured at R 200 on the
+    /// uniform plate; 0.55 here, where merging the plate's far columns took 30 000 cells to
+    /// 15 123 and with them most of what every node at every deposit costs); the layers
+    /// counted down the chain of supports.
     #[test]
     fn local_steps_cost_the_near_set_and_each_nodes_own_steps() {
         let deps = thermal::schedule::helix(0.2, 600, 40, 0.0018, 0.005, 0.01, 2000.0);
@@ -440,6 +442,6 @@ mod tests {
             * LOCAL_NS_PER_STEP
             * 1e-9;
         assert!((local.seconds / want - 1.0).abs() < 1e-12, "{local:?}");
-        assert!(local.seconds < 0.5 * every.seconds, "{local:?} {every:?}");
+        assert!(local.seconds < 0.6 * every.seconds, "{local:?} {every:?}");
     }
 }
