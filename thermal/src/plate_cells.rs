@@ -237,28 +237,17 @@ mod tests {
     use super::*;
     use crate::schedule::helix;
 
-    fn plate(mm: f64) -> Plate {
-        Plate {
-            size: [mm * 1e-3, mm * 1e-3, 0.01],
-            centre: [0.0, 0.0],
-            cell: 5e-3,
-            layers: 3,
-            disc: false,
-            material: None,
-        }
-    }
-
     /// A plate within reach of the metal everywhere is the uniform grid; a large one keeps its
     /// mass and areas exactly and conducts a uniform gradient across its merged columns as the
     /// uniform grid does.
     #[test]
     fn merged_columns_keep_mass_areas_and_a_gradient() {
         let deps = helix(0.02, 40, 1, 2e-3, 5e-3, 10e-3, 1000.0);
-        let small = PlateCells::new(&plate(60.0), &deps);
+        let small = PlateCells::new(&Plate::square_mm(60.0), &deps);
         assert!(small.columns.iter().all(|c| c.1 == 1));
         assert_eq!(small.len(), 12 * 12 * 3);
 
-        let big = PlateCells::new(&plate(250.0), &deps);
+        let big = PlateCells::new(&Plate::square_mm(250.0), &deps);
         assert!(big.len() < 50 * 50 * 3 / 3, "{} cells", big.len());
         let cells: Vec<_> = big.cells(7800.0).collect();
         let mass: f64 = cells.iter().map(|c| c.0).sum();

@@ -58,6 +58,22 @@ pub struct Plate {
     pub material: Option<crate::material::Material>,
 }
 
+#[cfg(test)]
+impl Plate {
+    /// A square test plate of the deposit's material, `mm` a side and 10 mm thick, centred on
+    /// the origin, of 5 mm cells three layers deep (the thin wall's).
+    pub(crate) fn square_mm(mm: f64) -> Plate {
+        Plate {
+            size: [mm * 1e-3, mm * 1e-3, 0.01],
+            centre: [0.0, 0.0],
+            cell: 5e-3,
+            layers: 3,
+            disc: false,
+            material: None,
+        }
+    }
+}
+
 /// What a deposit is laid on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Support {
