@@ -3,8 +3,9 @@
 //! the wall is a shell laid out on the path's own grid. Each node is a stretch of bead (width ×
 //! height × length, at least `min_node_mm` long, so that the shrinking revolutions near a closing
 //! point do not make the model stiff), joined to its neighbours along the bead and to the deposit
-//! it lies on. The substrate plate is a grid of cells uniform through its thickness, losing heat
-//! from its top and through the table beneath. Nodes switch on as the torch lays them, arriving
+//! it lies on. The substrate plate is a grid of cells uniform through its thickness (its columns
+//! merged away from the part, [`crate::plate_cells`]), losing heat from its top and through the
+//! table beneath. Nodes switch on as the torch lays them, arriving
 //! molten; the rest of the arc's heat goes into the nodes of the torch footprint behind it.
 
 use crate::error::ThermalError;

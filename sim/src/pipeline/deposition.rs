@@ -242,7 +242,6 @@ fn local_steps(t: &ThermalSettings) -> LocalSteps {
     }
 }
 
-/// The plate is centred under the first revolution (the deposits laid on it), m.
 /// The plate `t` describes, centred under the deposits laid on it.
 pub(crate) fn plate_of(t: &ThermalSettings, deposits: &[Deposit]) -> Plate {
     Plate {
@@ -255,6 +254,7 @@ pub(crate) fn plate_of(t: &ThermalSettings, deposits: &[Deposit]) -> Plate {
     }
 }
 
+/// The plate is centred under the first revolution (the deposits laid on it), m.
 pub fn plate_centre(deposits: &[Deposit]) -> [f64; 2] {
     let first: Vec<&Deposit> = deposits.iter().filter(|d| d.support.is_none()).collect();
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);

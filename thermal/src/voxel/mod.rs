@@ -348,7 +348,7 @@ const FACES: [(isize, isize, isize); 6] = [
 /// The stable explicit step of cells of edge `dx` of material `m`: dx²/(6·α_max), α_max the
 /// largest diffusivity over the material's temperatures ([`Material::fastest_diffusivity`]),
 /// times `courant` (< 1: the margin that also covers the surface losses, a few per cent of
-/// the conduction's rate at 1–2 mm; docs/PHYSICS.md "The voxel model").
+/// the conduction's rate at 1–2 mm; docs/PHYSICS.md "Voxel model").
 pub fn stable_step(m: &Material, dx: f64, courant: f64) -> f64 {
     courant * dx * dx / (6.0 * m.fastest_diffusivity())
 }
