@@ -4,9 +4,11 @@
 //! over the build time, times the mean active set, at a rate per voxel-step measured on this
 //! machine's kind). The thin-wall model is small beside it: its nodes follow the path.
 //!
-//! Pure arithmetic on the schedule: no model is built, nothing is allocated for the cells, so a
-//! run too large for the machine is refused at once.
+//! Arithmetic on the schedule: no model is built and nothing is allocated for the cells (but
+//! the thin wall's plate columns, a few bytes each, laid out to count its merged cells up to
+//! `COUNTED_COLUMNS_MAX`), so a run too large for the machine is refused at once.
 
+use super::deposition::PLATE_LAYERS;
 use super::params::{ThermalModel, ThermalSettings};
 use thermal::schedule::Deposit;
 
@@ -50,6 +52,11 @@ pub const NODE_BYTES: f64 = 2_000.0;
 /// Nanoseconds per active thin-wall node and deposit (its steps' conjugate-gradient
 /// iterations included), measured on this machine's kind (docs/PERFORMANCE.md).
 pub const NODE_NS_PER_STEP: f64 = 200.0;
+
+/// The most plate columns the thin wall's estimate lays out to count its merged cells (about
+/// 12 bytes a column while it counts: 120 MB here); past it, a plate no machine could step,
+/// the uniform grid's count bounds them without allocating anything.
+const COUNTED_COLUMNS_MAX: f64 = 1e7;
 
 /// Local time stepping on the thin wall ([`thermal::rates`]): the nodes stepped at every
 /// deposit (within the near zone, or just left it and still cooling fast), per (near zone /
@@ -183,9 +190,16 @@ pub fn estimate(
             let wall = (path / t.node_m)
                 .ceil()
                 .clamp(1.0, deposits.len().max(1) as f64);
-            let plate =
-                thermal::wall::plate_cells(&super::deposition::plate_of(t, deposits), deposits)
-                    as f64;
+            let [px, py, _] = t.plate_m;
+            let columns =
+                (px / t.plate_cell_m).round().max(1.0) * (py / t.plate_cell_m).round().max(1.0);
+            let plate = match columns <= COUNTED_COLUMNS_MAX {
+                true => {
+                    let p = super::deposition::plate_of(t, deposits);
+                    thermal::wall::plate_cells(&p, deposits) as f64
+                }
+                false => columns * PLATE_LAYERS as f64,
+            };
             let nodes = wall + plate;
             let steps = deposits.len() as f64;
             // Every node at every deposit, or (local steps) the near set at every deposit and
@@ -405,6 +419,24 @@ mod tests {
         let cpu = estimate(&cpu, &m, &deps, 1000.0, 1.0, 0, 1);
         assert!(!cpu.line().contains("H200"), "{}", cpu.line());
         assert!(cpu.seconds != gpu.seconds && cpu.steps == gpu.steps);
+    }
+
+    /// A plate no machine could step (10 m square of 0.5 mm cells, 4e8 columns) is counted as
+    /// the uniform grid, without laying its columns out, and refused on its memory.
+    #[test]
+    fn a_huge_thin_wall_plate_is_counted_without_laying_it_out() {
+        let deps = thermal::schedule::helix(0.2, 600, 2, 0.0018, 0.005, 0.01, 2000.0);
+        let t = ThermalSettings {
+            model: ThermalModel::ThinWall,
+            plate_m: [10.0, 10.0, 0.01],
+            plate_cell_m: 5e-4,
+            plate_fit: false,
+            ..ThermalSettings::default()
+        };
+        let m = thermal::material::Material::g3si();
+        let e = estimate(&t, &m, &deps, 1e4, 1.0, 0, 1);
+        assert_eq!(e.plate_cells, 4e8 * PLATE_LAYERS as f64);
+        assert!(e.bytes > 1e11, "{e:?}");
     }
 
     /// The thin wall with local steps: the near set at every deposit and a few steps a node
