@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The cost of a heat run against the part's size (docs/PERFORMANCE.md "Parts at full scale").
 # `simulate` of closed hemispheres (2 mm edges, the fitted plate, outputs off), each model with
-# and without its cost cut, one run at a time; one row each into scaling.csv beside this file:
+# and without its cost cut (the thin wall's reference: every node every step, the plate's
+# uniform grid), one run at a time; one row each into scaling.csv beside this file:
 #   model,mode,radius_mm,bead_m,deposits,wall_s,peak_mb
 # wall_s is the whole command's (plan, heat, files), peak_mb its peak resident memory.
 # COMMAND=dwell runs `waamtwin dwell --no-baselines` instead (the dwell plan: the search, its
@@ -16,7 +17,7 @@
 # Then: cargo run --release -p sim --example scaling_plot -- docs/scaling/scaling.csv docs/img/scaling.png
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-cases=("thin-wall reference local_steps=false" "thin-wall cut local_steps=true"
+cases=("thin-wall reference local_steps=false,merge_plate=false" "thin-wall cut local_steps=true"
   "voxel reference coarse_plate=false" "voxel cut coarse_plate=true")
 device=cpu
 device_key=""
@@ -56,7 +57,7 @@ radius_mm = $r.0
 edge_mm = 2.0
 [thermal]
 model = "$model"
-${key/=/ = }
+$(tr , '\n' <<<"${key//=/ = }")
 $device_key
 [output]
 rerun = false

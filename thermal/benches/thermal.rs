@@ -117,6 +117,7 @@ fn main() {
         traces: vec![],
         trace_hottest: false,
         local_steps: None,
+        merge_plate: true,
     };
     let t = Instant::now();
     let r = WallModel::build(&deps, &ws)

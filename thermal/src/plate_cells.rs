@@ -37,8 +37,8 @@ pub(crate) struct PlateCells {
 
 impl PlateCells {
     /// The cells of plate `p` under the deposits `deps` (those with no support are laid on
-    /// it).
-    pub fn new(p: &Plate, deps: &[Deposit]) -> PlateCells {
+    /// it); `merge` false: the uniform grid, nothing merged.
+    pub fn new(p: &Plate, deps: &[Deposit], merge: bool) -> PlateCells {
         let (nx, ny, nz) = (
             ((p.size[0] / p.cell).round() as usize).max(1),
             ((p.size[1] / p.cell).round() as usize).max(1),
@@ -58,6 +58,9 @@ impl PlateCells {
                 .fold(f64::INFINITY, |a, &d| a.min(d))
         };
         let side_at = |i: usize, j: usize| -> usize {
+            if !merge {
+                return 1;
+            }
             for (side, beyond) in [(4, MERGE_4_BEYOND_CELLS), (2, MERGE_2_BEYOND_CELLS)] {
                 let first = [i - i % side, j - j % side];
                 let inside = first[0] + side <= nx && first[1] + side <= ny;
@@ -239,15 +242,15 @@ mod tests {
 
     /// A plate within reach of the metal everywhere is the uniform grid; a large one keeps its
     /// mass and areas exactly and conducts a uniform gradient across its merged columns as the
-    /// uniform grid does.
+    /// uniform grid does; and without the merge it is the uniform grid.
     #[test]
     fn merged_columns_keep_mass_areas_and_a_gradient() {
         let deps = helix(0.02, 40, 1, 2e-3, 5e-3, 10e-3, 1000.0);
-        let small = PlateCells::new(&Plate::square_mm(60.0), &deps);
+        let small = PlateCells::new(&Plate::square_mm(60.0), &deps, true);
         assert!(small.columns.iter().all(|c| c.1 == 1));
         assert_eq!(small.len(), 12 * 12 * 3);
 
-        let big = PlateCells::new(&Plate::square_mm(250.0), &deps);
+        let big = PlateCells::new(&Plate::square_mm(250.0), &deps, true);
         assert!(big.len() < 50 * 50 * 3 / 3, "{} cells", big.len());
         let cells: Vec<_> = big.cells(7800.0).collect();
         let mass: f64 = cells.iter().map(|c| c.0).sum();
@@ -270,5 +273,10 @@ mod tests {
         pairs.sort();
         pairs.dedup();
         assert_eq!(pairs.len(), edges.len());
+
+        // Not merged (the reference): the uniform grid however far the plate reaches.
+        let uniform = PlateCells::new(&Plate::square_mm(250.0), &deps, false);
+        assert!(uniform.columns.iter().all(|c| c.1 == 1));
+        assert_eq!(uniform.len(), 50 * 50 * 3);
     }
 }

@@ -57,6 +57,15 @@ pub struct WallSettings {
     /// node at every step (the reference).
     #[serde(default)]
     pub local_steps: Option<LocalSteps>,
+    /// The plate's columns merged 2 × 2 and 4 × 4 away from the metal laid on it
+    /// ([`crate::plate_cells`]); false: the uniform grid of `plate.cell` (the reference).
+    #[serde(default = "merged")]
+    pub merge_plate: bool,
+}
+
+/// `merge_plate` where a serialized setting lacks it: the default, merged.
+fn merged() -> bool {
+    true
 }
 
 struct Layout {
@@ -127,9 +136,9 @@ fn layout(deps: &[Deposit], min_node: f64) -> Layout {
 }
 
 /// How many cells the thin wall lays plate `p` out in under `deps` (its columns merged away
-/// from the metal laid on it), without building the model.
-pub fn plate_cells(p: &Plate, deps: &[Deposit]) -> usize {
-    PlateCells::new(p, deps).len()
+/// from the metal laid on it where `merge`), without building the model.
+pub fn plate_cells(p: &Plate, deps: &[Deposit], merge: bool) -> usize {
+    PlateCells::new(p, deps, merge).len()
 }
 
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
@@ -173,7 +182,7 @@ impl WallModel {
         let rho = s.material.density;
         // Plate cells: columns of `layers` cells through the thickness, top layer first, merged
         // in the plane away from the metal laid on it ([`PlateCells`]).
-        let plate = PlateCells::new(&s.plate, deps);
+        let plate = PlateCells::new(&s.plate, deps, s.merge_plate);
         let cz = plate.cell[2];
         let cell_id = |x: f64, y: f64| plate.top_at(x, y).map(|c| nw + c);
         let n = nw + plate.len();

@@ -65,6 +65,7 @@ fn models(material: Material) -> [HeatModel; 4] {
         traces: vec![],
         trace_hottest: false,
         local_steps: None,
+        merge_plate: true,
     };
     [
         HeatModel::ThinWall(wall.clone()),

@@ -48,6 +48,7 @@ fn settings(local_steps: Option<LocalSteps>) -> WallSettings {
         traces: vec![],
         trace_hottest: false,
         local_steps,
+        merge_plate: true,
     }
 }
 

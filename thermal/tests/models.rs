@@ -56,6 +56,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         traces: vec![],
         trace_hottest: false,
         local_steps: None,
+        merge_plate: true,
     };
     let wall = WallModel::build(&deps, &ws)
         .unwrap()

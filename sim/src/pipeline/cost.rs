@@ -196,7 +196,7 @@ pub fn estimate(
             let plate = match columns <= COUNTED_COLUMNS_MAX {
                 true => {
                     let p = super::deposition::plate_of(t, deposits);
-                    thermal::wall::plate_cells(&p, deposits) as f64
+                    thermal::wall::plate_cells(&p, deposits, t.merge_plate) as f64
                 }
                 false => columns * PLATE_LAYERS as f64,
             };
@@ -475,5 +475,14 @@ mod tests {
             * 1e-9;
         assert!((local.seconds / want - 1.0).abs() < 1e-12, "{local:?}");
         assert!(local.seconds < 0.6 * every.seconds, "{local:?} {every:?}");
+
+        // The reference's uniform plate: 100 × 100 columns of 5 mm, three layers.
+        let uniform = ThermalSettings {
+            merge_plate: false,
+            ..t
+        };
+        let uniform = estimate(&uniform, &m, &deps, 1e4, 1.0, 0, 1);
+        assert_eq!(uniform.plate_cells, 30_000.0);
+        assert_eq!(local.plate_cells, 15_123.0);
     }
 }

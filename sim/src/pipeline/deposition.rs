@@ -206,6 +206,7 @@ pub fn heat_model_of(
             traces,
             trace_hottest: false,
             local_steps: t.local_steps.then(|| local_steps(t)),
+            merge_plate: t.merge_plate,
         }),
         ThermalModel::Voxel => HeatModel::Voxel(VoxelSettings {
             material,

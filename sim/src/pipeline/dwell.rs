@@ -1460,6 +1460,7 @@ mod tests {
                 age_share: 0.1,
                 change: None,
             }),
+            merge_plate: true,
         };
         let mut run = WallRun::new(
             WallModel::build(&deps, &settings).unwrap(),

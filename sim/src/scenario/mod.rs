@@ -493,6 +493,7 @@ fn thermal(t: &RawThermal, bead_width_mm: f64, c: &Checker) -> Result<ThermalSet
         lead_m: t.lead_mm * MM,
         coarse_plate: t.coarse_plate,
         local_steps: t.local_steps,
+        merge_plate: t.merge_plate,
         device,
     };
     settings.check().map_err(|e| c.invalid(e))?;

@@ -296,6 +296,8 @@ pub struct RawThermal {
     pub coarse_plate: bool,
     /// Thin wall: the nodes far from the arc stepped at their own, longer rates.
     pub local_steps: bool,
+    /// Thin wall: the plate's columns merged 2 × 2 and 4 × 4 away from the metal laid on it.
+    pub merge_plate: bool,
     /// Voxel model: "cpu" or "gpu" (wgpu's compute shaders; a build with the `gpu` feature).
     pub device: String,
 }
@@ -320,6 +322,7 @@ impl Default for RawThermal {
             plate_shape: "box".into(),
             coarse_plate: false,
             local_steps: true,
+            merge_plate: true,
             device: "cpu".into(),
         }
     }

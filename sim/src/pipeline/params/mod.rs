@@ -200,6 +200,9 @@ pub struct ThermalSettings {
     /// Thin wall: the nodes far from the arc stepped at their own, longer rates
     /// (`thermal::rates`); false: every node at every step (the reference).
     pub local_steps: bool,
+    /// Thin wall: the plate's columns merged away from the metal laid on it
+    /// (`thermal::wall::WallSettings::merge_plate`); false: the uniform grid (the reference).
+    pub merge_plate: bool,
     /// Voxel model: where it steps (`[thermal] device`).
     pub device: thermal::voxel::Device,
 }
@@ -236,6 +239,7 @@ impl ThermalSettings {
             lead_m: d::LEAD_MM * MM,
             coarse_plate: false,
             local_steps: true,
+            merge_plate: true,
             device: Default::default(),
         }
     }

@@ -214,6 +214,7 @@ pub(crate) mod fixtures {
             lead_m: 10e-3,
             coarse_plate: false,
             local_steps: true,
+            merge_plate: true,
             device: Default::default(),
         }
     }
