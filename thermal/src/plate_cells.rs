@@ -50,7 +50,11 @@ impl PlateCells {
             p.size[2] / nz as f64,
         ];
         let origin = [p.centre[0] - p.size[0] / 2.0, p.centre[1] - p.size[1] / 2.0];
-        let near = cells_to_metal([nx, ny], origin, cell, deps);
+        // The uniform grid never asks how far a column lies from the metal.
+        let near = match merge {
+            true => cells_to_metal([nx, ny], origin, cell, deps),
+            false => Vec::new(),
+        };
         // How many cells a block of columns lies from the metal: its nearest column's count.
         let away = |[i, j]: [usize; 2], side: usize| -> f64 {
             (j..j + side)
