@@ -113,33 +113,61 @@ fn confidence_json(
     })
 }
 
-/// The revolution-dwell yardstick's cost in one-build times: 6 to 12 on the family's parts
-/// (each revolution's shortest safe dwell found by trying dwells through it; docs/PERFORMANCE.md
-/// "CI time"). Left out of the estimate before 2026-11-26, which then said 37 minutes for the
-/// R 400 dome's plan, still searching at 30.
-const YARDSTICK_BUILDS: f64 = 9.0;
+/// A dwell command's heat runs in one-build times (the heat of `simulate`'s run), each model
+/// as measured (docs/PERFORMANCE.md "Cost estimates"): the run without dwells (1), the search
+/// (1.8 to 2.1 builds measured on the thin wall, 2026-11-28), the arc-stop bound (each deposit
+/// laid about once and a stretch's last few again from its copy, `pipeline::bound`: 1.13
+/// builds laid on the demo dome), the revolution-dwell yardstick (each revolution's shortest
+/// safe dwell found by trying dwells through it) and the run with the dwells.
+struct Builds {
+    yardstick: f64,
+    search: f64,
+    bound: f64,
+    dwelled: f64,
+}
 
-/// The arc-stop bound's cost in one-build times: each deposit laid about once, and a stretch's
-/// last few again from its copy (`pipeline::bound`): 1.13 builds laid on the demo dome.
-const BOUND_BUILDS: f64 = 1.2;
+/// On the thin wall, one thread (2026-11-28, `RAYON_NUM_THREADS=1`, the R 50 dome, the demo
+/// dome, the vase and the cone: 8.0 to 9.3 builds in all, the yardstick 3.2 to 3.8 of them by
+/// what the rest leaves): with local steps a node's cost is its deposits', not the build's
+/// seconds, so the dwelled run costs about what the build does (1.17 to 1.25).
+const THIN_WALL: Builds = Builds {
+    yardstick: 3.5,
+    search: 2.5,
+    bound: 1.2,
+    dwelled: 1.3,
+};
+
+/// The voxel model steps the build's seconds, so dwells (about doubling them) double the
+/// dwelled run; its yardstick was 6 to 12 builds on the family's parts (2026-11-26, "CI time").
+const VOXEL: Builds = Builds {
+    yardstick: 9.0,
+    search: 2.5,
+    bound: 1.2,
+    dwelled: 2.0,
+};
+
+/// On the thin wall with a second thread the yardstick is made beside the rest
+/// ([`dwelled::dwell`]), which saved 16–17 % (the vase, the cone) to 41–42 % (the R 50 dome,
+/// the demo) of one thread's time (2026-11-28): the least saving is counted.
+const BESIDE_SHARE: f64 = 0.85;
 
 /// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
 /// the cache's cooled copies: about four models at once) and, beside it, the revolution-dwell
 /// yardstick (its run, the revolution's start and a try: three more, and the cooled states its
 /// tries go on from, those between a failing and a passing try, not counted here; the peak
-/// measured no higher for them at R 400, 1.46 GB, and 6 % higher at R 100). It runs the build without
-/// dwells, about 2.5 builds' worth of search (docs/PERFORMANCE.md) and the bound, the
-/// yardstick beside those three, and the run with the dwells (dwells about double the build
-/// time). The baselines (`--no-baselines` leaves them out) are not counted.
+/// measured no higher for them at R 400, 1.46 GB, and 6 % higher at R 100). Its runs are
+/// [`Builds`]; the baselines (`--no-baselines` leaves them out) are not counted.
 fn keeps(s: &Scenario) -> super::cost::Keeps {
-    // The thin wall steps on one thread: with a second, the run without dwells, the search and
-    // the bound run within the yardstick's time ([`dwelled::dwell`]). The voxel model's runs
-    // share the threads.
+    let b = match s.thermal.model {
+        ThermalModel::ThinWall => THIN_WALL,
+        ThermalModel::Voxel => VOXEL,
+    };
+    let all = 1.0 + b.search + b.bound + b.yardstick + b.dwelled;
+    // The thin wall steps on one thread; the voxel model's runs share the threads.
     let beside = s.thermal.model == ThermalModel::ThinWall && rayon::current_num_threads() > 1;
-    let rest = 1.0 + 2.5 + BOUND_BUILDS;
     let together = match beside {
-        true => YARDSTICK_BUILDS.max(rest),
-        false => YARDSTICK_BUILDS + rest,
+        true => all * BESIDE_SHARE,
+        false => all,
     };
     super::cost::Keeps {
         copies: 7.0,
@@ -147,7 +175,6 @@ fn keeps(s: &Scenario) -> super::cost::Keeps {
         // At a confidence: the plan at the mean too, a run per parameter for the design point,
         // and both plans under every fresh draw.
         runs: together
-            + 2.0
             + s.confidence.as_ref().map_or(0.0, |c| {
                 4.5 + (c.uncertainty.mean.len() + 2) as f64 + 4.0 * c.check_draws as f64
             }),
