@@ -137,13 +137,17 @@ const THIN_WALL: Builds = Builds {
     dwelled: 1.3,
 };
 
-/// The voxel model steps the build's seconds, so dwells (about doubling them) double the
-/// dwelled run; its yardstick was 6 to 12 builds on the family's parts (2026-11-26, "CI time").
+/// The voxel model steps the build's seconds, and every dwell tried costs the seconds it
+/// cools: measured on the closed domes R 50 and R 100 (2026-11-28, plate coarsened, two
+/// threads; in `simulate` estimates of 2.5 and 14.0 s), the search took 15.6 and 12.4 of them,
+/// the dwelled run 2.3 and 2.1, the yardstick, the bound and the run without dwells 21.9 and
+/// 11.0; fitted to the R 50 dome (the longer in builds), 1.6 times long at R 100. Before, 15.7
+/// builds in all (a yardstick of 9), which put the estimate at 0.39 and 0.64 of the command.
 const VOXEL: Builds = Builds {
-    yardstick: 9.0,
-    search: 2.5,
+    yardstick: 20.0,
+    search: 16.0,
     bound: 1.2,
-    dwelled: 2.0,
+    dwelled: 2.5,
 };
 
 /// On the thin wall with a second thread the yardstick is made beside the rest
