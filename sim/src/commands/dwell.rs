@@ -113,9 +113,9 @@ fn confidence_json(
     })
 }
 
-/// A dwell command's heat runs in one-build times (the heat of `simulate`'s run), each model
-/// as measured (docs/PERFORMANCE.md "Cost estimates"): the run without dwells (1), the search
-/// (1.8 to 2.1 builds measured on the thin wall, 2026-11-28), the arc-stop bound (each deposit
+/// A dwell command's heat runs in one-build times (`simulate`'s estimate of the run), each
+/// model as measured (docs/PERFORMANCE.md "Cost estimates"): the run without dwells (1), the
+/// search (dwells tried and the runs from their checkpoints), the arc-stop bound (each deposit
 /// laid about once and a stretch's last few again from its copy, `pipeline::bound`: 1.13
 /// builds laid on the demo dome), the revolution-dwell yardstick (each revolution's shortest
 /// safe dwell found by trying dwells through it) and the run with the dwells.
