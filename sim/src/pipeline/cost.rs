@@ -98,6 +98,7 @@ pub const LOCAL_NS_GROWTH: f64 = 0.35;
 fn local_ns_per_step(nodes: f64) -> f64 {
     LOCAL_NS_PER_STEP * (nodes / LOCAL_NS_NODES).powf(LOCAL_NS_GROWTH)
 }
+
 const LOCAL_NEAR_M: f64 = super::params::documented::LOCAL_NEAR_MM * 1e-3;
 
 /// The estimate of one run.
