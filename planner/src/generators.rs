@@ -140,7 +140,13 @@ pub fn lower_points(part: &Part, n: usize) -> Vec<SurfacePoint> {
         .collect()
 }
 
-/// Ray c + t·dir against segment a→b in the xy plane: (t ≥ 0, u ∈ [0, 1]).
+/// How far past a segment's ends (in its own parameter u) a crossing still counts: a ray
+/// through a loop vertex meets its two edges at u = 1 and u = 0 only up to rounding, and with
+/// an exact test may miss both.
+const SEGMENT_END_SLACK: f64 = 1e-9;
+
+/// Ray c + t·dir against segment a→b in the xy plane: (t ≥ 0, u ∈ [0, 1], a crossing within
+/// [`SEGMENT_END_SLACK`] of an end taken at that end).
 fn ray_segment_xy(
     c: Point3<f64>,
     dir: Vector3<f64>,
@@ -155,7 +161,8 @@ fn ray_segment_xy(
     let w = a - c;
     let t = (w.x * e.y - w.y * e.x) / den;
     let u = (w.x * dir.y - w.y * dir.x) / den;
-    (t >= 0.0 && (0.0..=1.0).contains(&u)).then_some((t, u))
+    (t >= 0.0 && (-SEGMENT_END_SLACK..=1.0 + SEGMENT_END_SLACK).contains(&u))
+        .then_some((t, u.clamp(0.0, 1.0)))
 }
 
 /// The point (1 − u)·a + u·b of boundary edge ab, as a point of its face.
@@ -481,5 +488,29 @@ impl<'a> LoopParam<'a> {
         let t = (u - self.arc[k]) / (self.arc[k + 1] - self.arc[k]);
         let n = self.vertices.len();
         on_boundary_edge(self.part, self.vertices[k], self.vertices[(k + 1) % n], t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::LowerLoop;
+    use crate::shapes::tube_grid;
+
+    /// A ray through a loop vertex meets both its edges at u = 1 and u = 0 up to rounding, and
+    /// must still find one of them: `scenarios/mesh_file.toml`'s cone (84 loop vertices, 120
+    /// rays) lost a lower point this way and could not be planned. Tubes of 60 to 140 vertices
+    /// around, each with rays through some of its vertices (120 rays share a divisor with most).
+    #[test]
+    fn a_ray_through_a_loop_vertex_finds_its_point() {
+        for around in 60..=140 {
+            let part = Part::from_mesh(tube_grid(50.0, 20.0, around, 4), LowerLoop::LowestZ)
+                .expect("a tube is a valid part");
+            let found = lower_points(&part, 120).len();
+            assert_eq!(
+                found, 120,
+                "{around} vertices around: {found} of 120 points"
+            );
+        }
     }
 }
