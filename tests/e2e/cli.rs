@@ -311,7 +311,7 @@ fn a_run_too_big_for_the_machine_is_refused_at_once() {
         err.contains("estimate: ") && err.contains("voxels") && err.contains("steps"),
         "{err}"
     );
-    // With less memory than that run asks, the same scenario is refused after planning.
+    // With less memory than that run asks, the same scenario is refused before it starts.
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
         .args(["simulate", dir.join("s.toml").to_str().unwrap(), "-o"])
         .arg(dir.join("out2"))
@@ -320,4 +320,63 @@ fn a_run_too_big_for_the_machine_is_refused_at_once() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("thermal.voxel_mm"));
+}
+
+/// A part too fine for the planner to hold is refused before it is meshed: the R 400 dome at
+/// 0.4 mm edges (7.3e6 vertices, about 50 GB to plan; meshing it alone takes 2 GB and 45 s)
+/// within 2 GB, by `plan` and by `simulate`, naming `part.edge_mm` and the edge that fits. That
+/// edge, asked of a smaller dome within 40 MB, plans within the same memory; a mesh file too
+/// large is named with its vertices.
+#[test]
+fn a_part_too_fine_to_plan_is_refused_before_it_is_meshed() {
+    let dir = crate::scratch("too_fine");
+    let run = |command: &str, toml: &str, memory: &str| {
+        std::fs::write(dir.join("s.toml"), toml).unwrap();
+        let clock = std::time::Instant::now();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+            .args([command, dir.join("s.toml").to_str().unwrap(), "-o"])
+            .arg(dir.join("out"))
+            .env("WAAMTWIN_MEMORY_BYTES", memory)
+            .output()
+            .unwrap();
+        (o, clock.elapsed().as_secs_f64())
+    };
+    let huge = "[part]\nshape = \"hemisphere\"\nradius_mm = 400.0\nedge_mm = 0.4\n";
+    for command in ["plan", "simulate"] {
+        let (o, took) = run(command, huge, "2e9");
+        crate::assert_input_error(
+            &o,
+            &[
+                "s.toml",
+                "part.edge_mm = 0.4",
+                "7259085 vertices",
+                "or more",
+            ],
+        );
+        assert!(took < 2.0, "{command}: refused after {took} s");
+        assert!(!dir.join("out").join("plan.json").exists());
+    }
+    let dome = |edge: &str| {
+        format!("[part]\nshape = \"hemisphere\"\nradius_mm = 100.0\nedge_mm = {edge}\n")
+    };
+    let (o, _) = run("plan", &dome("2.0"), "40e6");
+    crate::assert_input_error(&o, &["part.edge_mm = 2 ", "18354 vertices", "or more"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    let fits = err
+        .split("expected part.edge_mm = ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .unwrap_or_else(|| panic!("no edge that fits in: {err}"));
+    let (o, _) = run("plan", &dome(fits), "40e6");
+    assert!(
+        o.status.success(),
+        "edge_mm = {fits}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let cone = format!(
+        "[part]\nmesh = \"{}\"\n",
+        crate::root().join("scenarios/parts/cone.stl").display()
+    );
+    let (o, _) = run("plan", &cone, "13e6");
+    crate::assert_input_error(&o, &["cone.stl has 1429 vertices", "a coarser mesh"]);
 }

@@ -13,6 +13,9 @@ use nalgebra::Point3;
 use rings::RingSurface;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
+/// A shape's mid-surface S(θ, t) as rings around its axis, the map boxed: one type for all.
+type Surface = RingSurface<Box<dyn Fn(f64, f64) -> Point3<f64>>>;
+
 #[derive(Debug, Clone, PartialEq)]
 pub enum Shape {
     /// Open cylinder of radius R and height H.
@@ -80,28 +83,37 @@ impl Shape {
 
     /// Mesh the mid-surface with edges of about `edge_mm`.
     pub fn mesh(&self, edge_mm: f64) -> TriMesh {
+        self.surface().mesh(edge_mm)
+    }
+
+    /// The vertices [`Shape::mesh`] makes at `edge_mm`, counted without making them: what a
+    /// command that plans the part asks of memory is known before the part is meshed.
+    pub fn vertices(&self, edge_mm: f64) -> usize {
+        self.surface().vertices(edge_mm)
+    }
+
+    /// The mid-surface as rings around its axis.
+    fn surface(&self) -> Surface {
         match *self {
             Shape::Cylinder {
                 radius_mm: r,
                 height_mm: h,
-            } => ring_mesh(
+            } => ring(
                 move |th, t| Point3::new(r * th.cos(), r * th.sin(), h * t),
                 false,
-                edge_mm,
             ),
             Shape::ConeFrustum {
                 radius_mm: r0,
                 top_radius_mm: r1,
                 height_mm: h,
                 top_slope_mm: slope,
-            } => ring_mesh(
+            } => ring(
                 move |th, t| {
                     let z = t * (h + slope * th.cos());
                     let r = r0 + (r1 - r0) * z / h;
                     Point3::new(r * th.cos(), r * th.sin(), z)
                 },
                 false,
-                edge_mm,
             ),
             Shape::Vase {
                 radius_mm,
@@ -116,17 +128,16 @@ impl Shape {
                         + top_slope_mm * th.cos()
                         + top_wave_mm * (top_waves as f64 * th).sin()
                 };
-                ring_mesh(
+                ring(
                     move |th, t| {
                         let z = t * top(th);
                         let r = radius_mm + bulge_mm * (PI * z / height_mm).sin();
                         Point3::new(r * th.cos(), r * th.sin(), z)
                     },
                     false,
-                    edge_mm,
                 )
             }
-            Shape::Hemisphere { radius_mm: r } => ring_mesh(
+            Shape::Hemisphere { radius_mm: r } => ring(
                 move |th, t| {
                     let phi = FRAC_PI_2 * (1.0 - t);
                     Point3::new(
@@ -136,14 +147,13 @@ impl Shape {
                     )
                 },
                 true,
-                edge_mm,
             ),
             Shape::AsymmetricDome {
                 radius_mm: r,
                 radius_y_mm: ry,
                 height_mm: h,
                 lean_mm,
-            } => ring_mesh(
+            } => ring(
                 move |th, t| {
                     let phi = FRAC_PI_2 * (1.0 - t);
                     let z = h * phi.cos();
@@ -151,38 +161,34 @@ impl Shape {
                     Point3::new(x, ry * phi.sin() * th.sin(), z)
                 },
                 true,
-                edge_mm,
             ),
             Shape::Bottle {
                 radius_mm: r,
                 height_mm: h,
                 neck_radius_mm: rn,
                 neck_height_mm: hn,
-            } => ring_mesh(
+            } => ring(
                 move |th, t| {
                     let z = h * t;
                     let rho = bottle_radius(r, h, rn, hn, z);
                     Point3::new(rho * th.cos(), rho * th.sin(), z)
                 },
                 false,
-                edge_mm,
             ),
             Shape::QuarterTorus {
                 bend_radius_mm: big,
                 tube_radius_mm: small,
-            } => ring_mesh(
+            } => ring(
                 move |v, t| {
                     let u = FRAC_PI_2 * t;
                     let rho = big + small * v.cos();
                     Point3::new(rho * u.cos() - big, small * v.sin(), rho * u.sin())
                 },
                 false,
-                edge_mm,
             ),
-            Shape::Disk { radius_mm: r } => ring_mesh(
+            Shape::Disk { radius_mm: r } => ring(
                 move |th, t| Point3::new(r * (1.0 - t) * th.cos(), r * (1.0 - t) * th.sin(), 0.0),
                 true,
-                edge_mm,
             ),
         }
     }
@@ -202,8 +208,11 @@ fn bottle_radius(r: f64, h: f64, rn: f64, hn: f64, z: f64) -> f64 {
     }
 }
 
-fn ring_mesh(map: impl Fn(f64, f64) -> Point3<f64>, closed_top: bool, edge_mm: f64) -> TriMesh {
-    RingSurface { map, closed_top }.mesh(edge_mm)
+fn ring(map: impl Fn(f64, f64) -> Point3<f64> + 'static, closed_top: bool) -> Surface {
+    RingSurface {
+        map: Box::new(map),
+        closed_top,
+    }
 }
 
 /// A structured grid on an open tube: `around` × `up` vertices (the geodesic benchmark mesh).

@@ -370,6 +370,15 @@ mod tests {
             let shape = Shape::from_params(sig.name, &given).unwrap();
             assert_eq!(shape.name(), sig.name);
             assert!(shape.extent_mm() >= 20.0);
+            // Its vertices counted without meshing are the mesh's, at a coarse and a fine edge.
+            for edge_mm in [2.5, 0.7] {
+                assert_eq!(
+                    shape.vertices(edge_mm),
+                    shape.mesh(edge_mm).n_vertices(),
+                    "{} at {edge_mm} mm",
+                    sig.name
+                );
+            }
         }
     }
 

@@ -21,21 +21,11 @@ pub struct RingSurface<F: Fn(f64, f64) -> Point3<f64>> {
 
 impl<F: Fn(f64, f64) -> Point3<f64>> RingSurface<F> {
     pub fn mesh(&self, edge_mm: f64) -> TriMesh {
-        let ts = self.ring_parameters(edge_mm);
         let mut positions = Vec::new();
         let mut rings: Vec<(u32, usize)> = Vec::new(); // (first vertex, count)
-        for (i, &t) in ts.iter().enumerate() {
+        for (t, n) in self.rings(edge_mm) {
             let first = positions.len() as u32;
-            if self.closed_top && i == ts.len() - 1 {
-                positions.push((self.map)(0.0, 1.0));
-                rings.push((first, 1));
-                continue;
-            }
-            let circumference = self.circumference(t);
-            let n = ((circumference / edge_mm).round() as usize).max(6);
-            for k in 0..n {
-                positions.push((self.map)(TAU * k as f64 / n as f64, t));
-            }
+            positions.extend((0..n).map(|k| (self.map)(TAU * k as f64 / n as f64, t)));
             rings.push((first, n));
         }
         let mut faces = Vec::new();
@@ -43,6 +33,28 @@ impl<F: Fn(f64, f64) -> Point3<f64>> RingSurface<F> {
             zip(w[0], w[1], &mut faces);
         }
         TriMesh::new(positions, faces)
+    }
+
+    /// The vertices [`RingSurface::mesh`] makes, counted without making them.
+    pub fn vertices(&self, edge_mm: f64) -> usize {
+        self.rings(edge_mm).iter().map(|&(_, n)| n).sum()
+    }
+
+    /// Each ring's parameter t and its vertex count: as many as its circumference needs at
+    /// `edge_mm` (at least six), one at a closed top (the pole, t = 1).
+    fn rings(&self, edge_mm: f64) -> Vec<(f64, usize)> {
+        let ts = self.ring_parameters(edge_mm);
+        let last = ts.len() - 1;
+        ts.iter()
+            .enumerate()
+            .map(|(i, &t)| match self.closed_top && i == last {
+                true => (1.0, 1),
+                false => (
+                    t,
+                    ((self.circumference(t) / edge_mm).round() as usize).max(6),
+                ),
+            })
+            .collect()
     }
 
     /// t values of the rings: equal arc length along the meridian averaged over four angles.

@@ -3,9 +3,14 @@
 //! arithmetic is the engine's (`pipeline::cost`); this shell reads what the machine has.
 
 use crate::error::{Error, Result};
-use crate::pipeline::cost::{Estimate, bytes, estimate, voxel_to_fit};
+use crate::part::load_part;
+use crate::pipeline::cost::{
+    BASE_BYTES, Estimate, bytes, estimate, plan_bytes, plan_vertices_to_fit, voxel_to_fit,
+};
 use crate::pipeline::deposition::material;
 use crate::pipeline::params::{Material, ThermalModel, ThermalSettings};
+use crate::scenario::{PartSource, PartSpec};
+use planner::mesh::Part;
 use thermal::schedule::Deposit;
 
 /// Memory this machine can give a run now, bytes: Linux's MemAvailable (`/proc/meminfo`), or
@@ -41,6 +46,9 @@ pub struct Keeps {
     /// The frames are recorded (run.rrd, run.mcap, fields.h5, the plots): each sink's scene
     /// holds them too ([`crate::pipeline::cost::recording_bytes`]).
     pub recorded: bool,
+    /// The vertices of the part the command planned first (0: none counted): the plan's peak,
+    /// shown beside the run's memory where it is the larger ([`plan_bytes`]).
+    pub planned: usize,
 }
 
 /// Estimate the run, print the estimate on stderr, and refuse it where it cannot fit.
@@ -62,6 +70,9 @@ pub fn check(
         rayon::current_num_threads(),
     );
     e.seconds *= keeps.runs;
+    if keeps.planned > 0 {
+        e.plan_bytes = plan_bytes(keeps.planned);
+    }
     if keeps.recorded {
         e.bytes += crate::pipeline::cost::recording_bytes(deposits.len(), keeps.frames);
     }
@@ -87,6 +98,59 @@ pub fn check_plate(file: &str, t: &ThermalSettings, m: &Material, keeps: Keeps) 
         Some(avail) if e.bytes > avail => Err(refusal(file, t, &e, avail)),
         _ => Ok(()),
     }
+}
+
+/// The part a command plans, refused where planning it cannot fit in the available memory: a
+/// library shape before it is meshed (its vertices counted), a mesh file once read (the file is
+/// bounded). Silent where it fits: the heat run's estimate follows once the plan is made.
+pub fn part_to_plan(file: &str, spec: &PartSpec) -> Result<Part> {
+    if let PartSource::Shape { shape, edge_mm } = &spec.source {
+        plan_fits(file, spec, shape.vertices(*edge_mm))?;
+    }
+    let part = load_part(spec)?;
+    if let PartSource::Mesh(_) = &spec.source {
+        plan_fits(file, spec, part.mesh.n_vertices())?;
+    }
+    Ok(part)
+}
+
+/// Refuse a plan of `vertices` vertices that cannot fit, naming the key to change and how far.
+fn plan_fits(file: &str, spec: &PartSpec, vertices: usize) -> Result<()> {
+    let Some(avail) = available_memory() else {
+        return Ok(());
+    };
+    let need = plan_bytes(vertices);
+    if need <= avail {
+        return Ok(());
+    }
+    let fit = plan_vertices_to_fit(avail);
+    let (part, coarser) = match &spec.source {
+        // The vertices go as 1/edge²; 2 % over, as the rings round their counts.
+        PartSource::Shape { edge_mm, .. } => (
+            format!("part.edge_mm = {edge_mm} meshes the part with {vertices} vertices"),
+            format!(
+                "part.edge_mm = {:.2} or more (at most {fit} vertices)",
+                (edge_mm * (1.02 * vertices as f64 / fit.max(1) as f64).sqrt() * 100.0).ceil()
+                    / 100.0
+            ),
+        ),
+        PartSource::Mesh(path) => (
+            format!("part.mesh = {} has {vertices} vertices", path.display()),
+            format!("a coarser mesh (at most {fit} vertices)"),
+        ),
+    };
+    let expected = match fit {
+        0 => format!(
+            "more memory: the process alone takes about {}",
+            bytes(BASE_BYTES)
+        ),
+        _ => coarser,
+    };
+    Err(Error::input(format!(
+        "{file}: {part}; planning them takes about {} (the heat method's factors grow as V·log V), and this machine has {} available; expected {expected}",
+        bytes(need),
+        bytes(avail)
+    )))
 }
 
 fn refusal(file: &str, t: &ThermalSettings, e: &Estimate, avail: f64) -> Error {

@@ -5,7 +5,6 @@ use super::checkpoint;
 use super::simulate::{record, write_thermal};
 use crate::error::Result;
 use crate::output::RunDir;
-use crate::part::load_part;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::dwell::DwellPlan;
 use crate::pipeline::dwelled::{self, AtMean, Dwelled};
@@ -183,6 +182,7 @@ fn keeps(s: &Scenario) -> super::cost::Keeps {
                 4.5 + (c.uncertainty.mean.len() + 2) as f64 + 4.0 * c.check_draws as f64
             }),
         recorded: s.output.records(),
+        planned: 0,
     }
 }
 
@@ -196,7 +196,7 @@ pub fn plan_and_dwell(
     extras: Extras,
     resume: Option<checkpoint::Options>,
 ) -> Result<String> {
-    let part = load_part(&s.part)?;
+    let part = super::cost::part_to_plan(file, &s.part)?;
     let b = super::plan::build(s, &part)?;
     let mut folder = match resume {
         Some(o) => {
@@ -211,7 +211,10 @@ pub fn plan_and_dwell(
         &s.material,
         b.deposits(),
         b.deposits().last().map_or(0.0, |d| d.time),
-        keeps(s),
+        super::cost::Keeps {
+            planned: part.mesh.n_vertices(),
+            ..keeps(s)
+        },
     )?;
     let mut ck = match folder.as_mut() {
         Some(f) => Checkpoints::to(f),

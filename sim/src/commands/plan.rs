@@ -31,8 +31,14 @@ pub fn build(s: &Scenario, part: &Part) -> Result<Build> {
 pub fn run(scenario: &Path, out: &Path, strategy: Strategy) -> Result<String> {
     let s = Scenario::load(scenario)?;
     // The tube strategies lay their layers on the analytic torus; no mesh is needed.
+    // CTPP's geodesics hold the heat method's factors: a part too fine to plan is refused
+    // before it is meshed; planar slicing holds the mesh alone.
     let part = match strategy {
-        Strategy::Ctpp | Strategy::Planar => Some(load_part(&s.part)?),
+        Strategy::Ctpp => Some(super::cost::part_to_plan(
+            &scenario.display().to_string(),
+            &s.part,
+        )?),
+        Strategy::Planar => Some(load_part(&s.part)?),
         _ => None,
     };
     let part = || part.as_ref().expect("loaded for mesh strategies");

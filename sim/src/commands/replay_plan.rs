@@ -8,12 +8,11 @@
 //! must be that plan's, point by point: its rows give the cooling, the plan the geometry.
 
 use super::checkpoint;
-use super::cost::{check, check_plate};
+use super::cost::{Keeps, check, check_plate, part_to_plan};
 use super::simulate::{heat, record, summary, write_thermal};
 use crate::error::{Error, Result};
 use crate::measured::path::{PathRow, rows};
 use crate::output::RunDir;
-use crate::part::load_part;
 use crate::pipeline::Build;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::deposition::Cooling;
@@ -29,7 +28,7 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let file = scenario.display().to_string();
     let keeps = super::simulate::one_run(&s);
     check_plate(&file, &s.thermal, &s.material, keeps)?;
-    let part = load_part(&s.part)?;
+    let part = part_to_plan(&file, &s.part)?;
     let b = super::plan::build(&s, &part)?;
     let name = path_file.display().to_string();
     let laid = rows(&super::replay::read(&path_file)?, &name)?;
@@ -44,7 +43,10 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         &s.material,
         b.deposits(),
         end,
-        keeps,
+        Keeps {
+            planned: part.mesh.n_vertices(),
+            ..keeps
+        },
     )?;
     let mut ck = Checkpoints::to(&mut folder);
     let sim = heat(&b, &cooling, s.output.frames, &mut ck, "heat")?;

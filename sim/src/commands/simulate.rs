@@ -2,10 +2,9 @@
 //! thermal.json and layers.csv beside the plan's files.
 
 use crate::commands::checkpoint;
-use crate::commands::cost::{Keeps, check, check_plate};
+use crate::commands::cost::{Keeps, check, check_plate, part_to_plan};
 use crate::error::Result;
 use crate::output::RunDir;
-use crate::part::load_part;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::deposition::Cooling;
 use crate::pipeline::{Build, Simulation};
@@ -23,7 +22,7 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let file = scenario.display().to_string();
     let keeps = one_run(&s);
     check_plate(&file, &s.thermal, &s.material, keeps)?;
-    let part = load_part(&s.part)?;
+    let part = part_to_plan(&file, &s.part)?;
     let mut dir = RunDir::create(out)?;
     let b = super::plan::build(&s, &part)?;
     let print = checkpoint::of_run("simulate", &s.to_json(), b.deposits());
@@ -34,7 +33,10 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         &s.material,
         b.deposits(),
         b.deposits().last().map_or(0.0, |d| d.time),
-        keeps,
+        Keeps {
+            planned: part.mesh.n_vertices(),
+            ..keeps
+        },
     )?;
     let mut ck = Checkpoints::to(&mut folder);
     let sim = heat(&b, &Cooling::default(), s.output.frames, &mut ck, "heat")?;
@@ -53,6 +55,7 @@ pub fn one_run(s: &Scenario) -> Keeps {
         frames: s.output.frames,
         runs: 1.0,
         recorded: s.output.records(),
+        planned: 0,
     }
 }
 

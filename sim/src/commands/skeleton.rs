@@ -83,6 +83,7 @@ fn cost(file: &Path, s: &Scenario, run: &LoopRun) -> Result<()> {
         frames: 0,
         runs: 1.0,
         recorded: false,
+        planned: 0,
     };
     super::cost::check(
         &file.display().to_string(),

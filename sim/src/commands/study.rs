@@ -281,7 +281,8 @@ pub fn run(
 
 /// Cases at once by default: one per core, fewer where the memory a case needs (the base
 /// scenario's plate-only estimate, ×4 for a dwell search's checkpoints, ×2 for the part's metal
-/// and the process) would not fit that many; the base's plate alone must fit once.
+/// and the process; or its plan's peak, where larger) would not fit that many; the base's plate
+/// alone must fit once.
 fn default_jobs(study: &Study) -> Result<usize> {
     let base = Scenario::parse(&study.base_text, &study.file, &study.base_dir)?;
     let copies = if study.command == "dwell" { 4.0 } else { 1.0 };
@@ -290,11 +291,19 @@ fn default_jobs(study: &Study) -> Result<usize> {
         frames: 0,
         runs: 1.0,
         recorded: false,
+        planned: 0,
     };
     super::cost::check_plate(&study.file, &base.thermal, &base.material, keeps)?;
     let m = crate::pipeline::deposition::material(&base.material, &base.thermal);
-    let per_case =
+    let heat =
         2.0 * crate::pipeline::cost::estimate(&base.thermal, &m, &[], 0.0, copies, 0, 1).bytes;
+    let vertices = match &base.part.source {
+        crate::scenario::PartSource::Shape { shape, edge_mm } => shape.vertices(*edge_mm),
+        crate::scenario::PartSource::Mesh(_) => {
+            crate::part::load_part(&base.part)?.mesh.n_vertices()
+        }
+    };
+    let per_case = heat.max(crate::pipeline::cost::plan_bytes(vertices));
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let by_memory = super::cost::available_memory()
         .map_or(cores, |avail| (avail / per_case.max(1.0)).floor() as usize);
@@ -303,7 +312,7 @@ fn default_jobs(study: &Study) -> Result<usize> {
 
 fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
     let s = study.scenario(c)?;
-    let part = crate::part::load_part(&s.part)?;
+    let part = super::cost::part_to_plan(&study.file, &s.part)?;
     let mut d = RunDir::create(dir)?;
     let b = super::plan::build(&s, &part)?;
     super::plan::write_plan(&mut d, &s, &b)?;

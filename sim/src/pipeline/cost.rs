@@ -115,7 +115,10 @@ pub struct Estimate {
     /// The heat model's work: voxel updates, or thin-wall node steps (what thermal.json's
     /// `cell_updates` counts once the run is made).
     pub updates: f64,
+    /// The heat run's memory, bytes (what is held against the machine once the plan is made).
     pub bytes: f64,
+    /// The plan's peak before it, bytes (0: the command plans nothing, or it is not counted).
+    pub plan_bytes: f64,
     pub seconds: f64,
 }
 
@@ -131,13 +134,21 @@ impl Estimate {
         } else {
             ""
         };
+        // The command's peak is the plan's where planning holds more than the run.
+        let memory = match self.plan_bytes > self.bytes {
+            true => format!(
+                "{} ({} while planning)",
+                bytes(self.bytes),
+                bytes(self.plan_bytes)
+            ),
+            false => bytes(self.bytes),
+        };
         format!(
-            "estimate: {:.3e} {what} ({:.3e} of them the plate), {:.3e} steps ({:.3e} cell updates a run), {}, about {}{pace}",
+            "estimate: {:.3e} {what} ({:.3e} of them the plate), {:.3e} steps ({:.3e} cell updates a run), {memory}, about {}{pace}",
             self.cells,
             self.plate_cells,
             self.steps,
             self.updates,
-            bytes(self.bytes),
             duration(self.seconds)
         )
     }
@@ -216,6 +227,7 @@ pub fn estimate(
                 bytes: BASE_BYTES
                     + cells * VOXEL_BYTES * copies
                     + frame_bytes(deposits.len(), frames),
+                plan_bytes: 0.0,
                 seconds,
             }
         }
@@ -261,6 +273,7 @@ pub fn estimate(
                 bytes: BASE_BYTES
                     + nodes * NODE_BYTES * copies
                     + frame_bytes(deposits.len(), frames),
+                plan_bytes: 0.0,
                 seconds,
             }
         }
@@ -342,6 +355,48 @@ fn duration(s: f64) -> String {
     }
 }
 
+/// What planning a part of `vertices` mesh vertices holds at its peak, bytes per vertex and
+/// doubling of the vertices past [`PLAN_FILL_START`]: the heat method's geodesic distances
+/// (Crane, Weischedel and Wardetzky 2013) keep five sparse Cholesky factors of the mesh's
+/// operators at once (the heat flow's two, the Poisson matrix's, and two pinned sets cached:
+/// 213 MB each of the R 400 dome's 1.07 GB, `heaptrack`), and a factor of a surface mesh's
+/// operator, ordered to cut its fill, holds O(V log V) entries (George 1973; Lipton, Rose and
+/// Tarjan 1979); the mesh, its operators and the fields add O(V). Fitted to the peak RSS of
+/// `waamtwin plan` on the closed domes R 50 to 400 at 2 mm edges (4 581 to 291 027 vertices:
+/// 0.95 to 1.04 of it), it holds at R 400 with 1 mm edges (1.16e6 vertices: 1.02) and on
+/// thirteen other parts not fitted within 0.90 to 1.38, the most over on tubes, whose factors
+/// fill less (docs/PERFORMANCE.md "The plan's memory").
+pub const PLAN_BYTES_PER_DOUBLING: f64 = 427.0;
+pub const PLAN_FILL_START: f64 = 68.0;
+
+/// The peak memory of planning a part meshed with `vertices` vertices, bytes ([`BASE_BYTES`]
+/// for the process included).
+pub fn plan_bytes(vertices: usize) -> f64 {
+    let v = vertices as f64;
+    BASE_BYTES + v * PLAN_BYTES_PER_DOUBLING * (v / PLAN_FILL_START).log2().max(1.0)
+}
+
+/// The most vertices a plan can have within `available` bytes (0 where not even the process
+/// fits): [`plan_bytes`] grows with the vertices, so bisection finds it.
+pub fn plan_vertices_to_fit(available: f64) -> usize {
+    if plan_bytes(0) > available {
+        return 0;
+    }
+    let (mut lo, mut hi) = (0usize, 1usize);
+    while plan_bytes(hi) <= available {
+        lo = hi;
+        hi *= 2;
+    }
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        match plan_bytes(mid) <= available {
+            true => lo = mid,
+            false => hi = mid,
+        }
+    }
+    lo
+}
+
 /// The voxel edge that would bring `bytes` under `available`: memory goes as 1/dx³.
 pub fn voxel_to_fit(voxel_m: f64, bytes: f64, available: f64) -> f64 {
     voxel_m * (bytes / available).cbrt()
@@ -350,6 +405,50 @@ pub fn voxel_to_fit(voxel_m: f64, bytes: f64, available: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The plan's memory against the peak RSS of `waamtwin plan` on parts it was not fitted to
+    /// (`docs/scaling/plan_memory.sh`, 2026-11-29; mesh vertices, MB): held within 0.85–1.45,
+    /// under by at most 10 % (small parts) and over by at most 38 % (a long tube).
+    #[test]
+    fn the_plans_memory_meets_the_peaks_measured() {
+        let measured = [
+            ("dome R 400, 1 mm edges", 1_162_836, 6855.6),
+            ("dome R 100, 2.76 mm edges", 9_637, 45.9),
+            ("bottle.toml", 11_530, 50.3),
+            ("vase.toml", 14_792, 57.7),
+            ("cylinder.toml", 23_343, 83.9),
+            ("chalvin_torus.toml", 13_860, 55.6),
+            ("quarter_torus.toml", 9_100, 38.8),
+            ("asymmetric_dome.toml", 18_076, 76.5),
+            ("asymmetric dome R 240", 161_951, 820.0),
+            ("bottle R 150", 103_063, 432.0),
+            ("cone frustum R 240", 131_710, 530.6),
+            ("cylinder R 200 × 400", 145_696, 507.5),
+            ("quarter torus 300 / 60, 1 mm edges", 205_465, 940.6),
+            ("vase R 180", 132_637, 552.6),
+        ];
+        for (part, vertices, mb) in measured {
+            let ratio = plan_bytes(vertices) / (mb * 1e6);
+            assert!((0.85..=1.45).contains(&ratio), "{part}: {ratio:.3}");
+        }
+    }
+
+    /// The most vertices that fit is the largest the estimate keeps within the memory given.
+    #[test]
+    fn the_vertices_to_fit_are_the_most_within_the_memory() {
+        for avail in [5e6, 40e6, 1.5e9, 24e9, 1e12] {
+            let v = plan_vertices_to_fit(avail);
+            match v {
+                0 => assert!(plan_bytes(0) > avail),
+                v => assert!(
+                    plan_bytes(v) <= avail && plan_bytes(v + 1) > avail,
+                    "{avail}"
+                ),
+            }
+        }
+        assert_eq!(plan_vertices_to_fit(5e6), 0);
+        assert!(plan_vertices_to_fit(24e9) > 3_000_000);
+    }
 
     /// The plate, 1000 × 1000 × 50 mm at 0.25 mm: 3.2e9 voxels, far past any memory.
     #[test]
