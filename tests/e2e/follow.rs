@@ -888,3 +888,37 @@ fn a_viewer_that_is_not_there_does_not_stop_the_run() {
     ]);
     crate::assert_input_error(&bad, &["--connect http://127.0.0.1:9876", "rerun+http"]);
 }
+
+/// `replay`, `calibrate` and `follow` show the estimate of their heat runs before they start,
+/// and refuse with exit 2 what cannot fit the available memory, naming the voxel edge's key and
+/// the edge that fits: `live.voxel_mm` where the twin has its own grid. Nothing is written.
+#[test]
+fn a_logged_build_too_big_for_the_machine_is_refused_before_it_starts() {
+    let dir = scratch("replay_too_big");
+    let cases: [(&str, &str, &str); 4] = [
+        ("replay", "", "thermal.voxel_mm = 2 asks for"),
+        ("calibrate", "", "thermal.voxel_mm = 2 asks for"),
+        ("follow", "", "thermal.voxel_mm = 2 asks for"),
+        ("follow", "voxel_mm = 4.0", "live.voxel_mm = 4 asks for"),
+    ];
+    for (k, (command, live, key)) in cases.iter().enumerate() {
+        let case = dir.join(format!("case{k}"));
+        std::fs::create_dir_all(&case).unwrap();
+        let (scenario, lines) = small_wall(&case, live);
+        std::fs::write(case.join("log.csv"), lines.join("\n") + "\n").unwrap();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+            .args([command, scenario.to_str().unwrap(), "-o"])
+            .arg(case.join("out"))
+            .env("WAAMTWIN_MEMORY_BYTES", "2e6")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{command}: {err}");
+        assert!(!err.contains("panicked"), "{command}: {err}");
+        assert!(err.contains("estimate: "), "{command}: {err}");
+        for needle in ["wall.toml", key, "or more"] {
+            assert!(err.contains(needle), "{command}: no {needle:?} in {err}");
+        }
+        assert!(!case.join("out").exists(), "{command} wrote its folder");
+    }
+}

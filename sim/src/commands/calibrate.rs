@@ -61,6 +61,20 @@ pub fn run(
     let hold_w = holdout_flag
         .or(cal.holdout_s)
         .unwrap_or([end_s / 2.0, end_s]);
+    // At most `max_runs` runs to the fit window's end, and the start and the fit run whole.
+    super::cost::check_replay(
+        &name.to_string(),
+        &r,
+        end_s,
+        super::cost::Keeps {
+            copies: 2.0,
+            frames: 0,
+            runs: cal.max_runs as f64 * (fit_w[1] / end_s.max(1e-9)).min(1.0) + 2.0,
+            recorded: false,
+            planned: 0,
+        },
+        "thermal.voxel_mm",
+    )?;
     let mut dir = RunDir::create(out)?;
     let task = Task {
         parameters: cal

@@ -9,6 +9,7 @@ use crate::pipeline::cost::{
 };
 use crate::pipeline::deposition::material;
 use crate::pipeline::params::{Material, ThermalModel, ThermalSettings};
+use crate::pipeline::replay::Replay;
 use crate::scenario::{PartSource, PartSpec};
 use planner::mesh::Part;
 use thermal::schedule::Deposit;
@@ -60,9 +61,48 @@ pub fn check(
     build_s: f64,
     keeps: Keeps,
 ) -> Result<Estimate> {
+    held(
+        file,
+        (t, &material(m, t)),
+        deposits,
+        build_s,
+        keeps,
+        "thermal.voxel_mm",
+    )
+}
+
+/// The same for the heat runs of a logged build (`replay`, `calibrate`, `follow`), on the model
+/// its scenario sets up, until `end_s` (the last deposit or the last reading); `key` names the
+/// voxel edge (`live.voxel_mm` where the twin has its own).
+pub fn check_replay(
+    file: &str,
+    r: &Replay,
+    end_s: f64,
+    keeps: Keeps,
+    key: &str,
+) -> Result<Estimate> {
+    // The step is the shorter of the deposit's and the plate's own material's (the cells of
+    // edge dx under the metal: `thermal::voxel::VoxelModel::stable_step`).
+    let t = &r.values.thermal;
+    let step = |m| crate::pipeline::cost::stable_step(m, t.voxel_m);
+    let m = match &r.plate_material {
+        Some(p) if step(p) < step(&r.material) => p,
+        _ => &r.material,
+    };
+    held(file, (t, m), &r.deps, end_s, keeps, key)
+}
+
+fn held(
+    file: &str,
+    (t, m): (&ThermalSettings, &thermal::material::Material),
+    deposits: &[Deposit],
+    build_s: f64,
+    keeps: Keeps,
+    key: &str,
+) -> Result<Estimate> {
     let mut e = estimate(
         t,
-        &material(m, t),
+        m,
         deposits,
         build_s,
         keeps.copies,
@@ -85,7 +125,7 @@ pub fn check(
     if let Some(avail) = available_memory()
         && e.bytes > avail
     {
-        return Err(refusal(file, t, &e, avail));
+        return Err(refusal(file, t, &e, avail, key));
     }
     Ok(e)
 }
@@ -95,7 +135,7 @@ pub fn check(
 pub fn check_plate(file: &str, t: &ThermalSettings, m: &Material, keeps: Keeps) -> Result<()> {
     let e = estimate(t, &material(m, t), &[], 0.0, keeps.copies, keeps.frames, 1);
     match available_memory() {
-        Some(avail) if e.bytes > avail => Err(refusal(file, t, &e, avail)),
+        Some(avail) if e.bytes > avail => Err(refusal(file, t, &e, avail, "thermal.voxel_mm")),
         _ => Ok(()),
     }
 }
@@ -153,12 +193,13 @@ fn plan_fits(file: &str, spec: &PartSpec, vertices: usize) -> Result<()> {
     )))
 }
 
-fn refusal(file: &str, t: &ThermalSettings, e: &Estimate, avail: f64) -> Error {
+/// The refusal of a run that cannot fit; `key` names the voxel edge to change.
+fn refusal(file: &str, t: &ThermalSettings, e: &Estimate, avail: f64, key: &str) -> Error {
     match t.model {
         ThermalModel::Voxel => {
             let dx = voxel_to_fit(t.voxel_m, e.bytes, avail) * 1e3;
             Error::input(format!(
-                "{file}: thermal.voxel_mm = {} asks for {:.3e} voxels ({:.3e} of them the plate), about {}, and this machine has {} available; expected a run that fits: thermal.voxel_mm = {:.2} or more (memory goes as 1/voxel³), or a smaller thermal.plate_mm, or fewer output.frames",
+                "{file}: {key} = {} asks for {:.3e} voxels ({:.3e} of them the plate), about {}, and this machine has {} available; expected a run that fits: {key} = {:.2} or more (memory goes as 1/voxel³), or a smaller thermal.plate_mm, or fewer output.frames",
                 t.voxel_m * 1e3,
                 e.cells,
                 e.plate_cells,

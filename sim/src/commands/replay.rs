@@ -57,6 +57,25 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     };
     let every_s = measured.as_ref().map_or(1.0, |m| sampling_interval(&m.t_s));
     let r = set_up(&s, every_s)?;
+    let end_s = r.deps.last().map_or(0.0, |d| d.time).max(
+        measured
+            .as_ref()
+            .and_then(|m| m.t_s.last().copied())
+            .unwrap_or(0.0),
+    );
+    super::cost::check_replay(
+        &scenario.display().to_string(),
+        &r,
+        end_s,
+        super::cost::Keeps {
+            copies: 1.0,
+            frames: 0,
+            runs: 1.0,
+            recorded: false,
+            planned: 0,
+        },
+        "thermal.voxel_mm",
+    )?;
     let mut dir = RunDir::create(out)?;
     let print = checkpoint::of_run("replay", &s.to_json(), &r.deps);
     let mut folder = checkpoint::Folder::open(out, "replay", print, resume)?;

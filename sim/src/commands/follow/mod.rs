@@ -270,6 +270,26 @@ pub fn run(
         live.coarse_plate && twin_scenario.thermal.device == thermal::voxel::Device::Cpu;
     let r = set_up(&twin_scenario, 1.0)?;
     let priors = priors(&s, &live, &r)?;
+    // The ensemble's members and the open loop, each a model over the whole build, and each
+    // copied and run on to the longest horizon at every forecast (`Twin::forecast`).
+    let (runs, t) = (live.twin.ensemble as f64 + 1.0, &live.twin);
+    let ahead = t.horizons_s.iter().copied().fold(0.0, f64::max) / t.forecast_every_s;
+    super::cost::check_replay(
+        &name,
+        &r,
+        r.deps.last().map_or(0.0, |d| d.time),
+        super::cost::Keeps {
+            copies: 2.0 * runs,
+            frames: 0,
+            runs: runs * (1.0 + ahead),
+            recorded: false,
+            planned: 0,
+        },
+        match live.voxel_m {
+            Some(_) => "live.voxel_mm",
+            None => "thermal.voxel_mm",
+        },
+    )?;
     let print = checkpoint::of_run("follow", &s.to_json(), &r.deps);
     let mut folder = checkpoint::Folder::open(out, "follow", print, resume)?;
     let mut ck = Checkpoints::to(&mut folder);
