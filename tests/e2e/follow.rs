@@ -922,3 +922,31 @@ fn a_logged_build_too_big_for_the_machine_is_refused_before_it_starts() {
         assert!(!case.join("out").exists(), "{command} wrote its folder");
     }
 }
+
+/// The readings a replay holds count in its memory (`pipeline::cost::READING_BYTES`): the small
+/// wall's model is about 12.4 MB, its 963 readings 1.35 MB more; within 13 MB it is refused,
+/// and the same replay with the probe file cut to two rows fits and runs.
+#[test]
+fn a_replays_readings_count_in_its_memory() {
+    let dir = scratch("replay_readings");
+    let (scenario, lines) = small_wall(&dir, "");
+    let replay = |rows: &[String], out: &str| {
+        std::fs::write(dir.join("log.csv"), rows.join("\n") + "\n").unwrap();
+        std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+            .args(["replay", scenario.to_str().unwrap(), "-o"])
+            .arg(dir.join(out))
+            .env("WAAMTWIN_MEMORY_BYTES", "13e6")
+            .output()
+            .unwrap()
+    };
+    let all = replay(&lines, "all");
+    let err = String::from_utf8_lossy(&all.stderr);
+    assert_eq!(all.status.code(), Some(2), "{err}");
+    assert!(err.contains("thermal.voxel_mm = 2 asks for"), "{err}");
+    let few = replay(&lines[..3], "few");
+    assert!(
+        few.status.success(),
+        "{}",
+        String::from_utf8_lossy(&few.stderr)
+    );
+}

@@ -72,6 +72,7 @@ pub fn run(
             runs: cal.max_runs as f64 * (fit_w[1] / end_s.max(1e-9)).min(1.0) + 2.0,
             recorded: false,
             planned: 0,
+            readings: super::replay::readings(&m),
         },
         "thermal.voxel_mm",
     )?;

@@ -50,6 +50,9 @@ pub struct Keeps {
     /// The vertices of the part the command planned first (0: none counted): the plan's peak,
     /// shown beside the run's memory where it is the larger ([`plan_bytes`]).
     pub planned: usize,
+    /// The measured readings the command holds, compares and records (a replay's probes; 0:
+    /// none, or not known before the run, as `follow`'s growing file).
+    pub readings: usize,
 }
 
 /// Estimate the run, print the estimate on stderr, and refuse it where it cannot fit.
@@ -116,6 +119,7 @@ fn held(
     if keeps.recorded {
         e.bytes += crate::pipeline::cost::recording_bytes(deposits.len(), keeps.frames);
     }
+    e.bytes += crate::pipeline::cost::READING_BYTES * keeps.readings as f64;
     eprintln!("{}", e.line());
     if t.model == ThermalModel::ThinWall
         && let Some(c) = crate::pipeline::resolution::coarse_deposits(deposits, t.node_m)

@@ -183,6 +183,7 @@ fn keeps(s: &Scenario) -> super::cost::Keeps {
             }),
         recorded: s.output.records(),
         planned: 0,
+        readings: 0,
     }
 }
 

@@ -73,6 +73,7 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
             runs: 1.0,
             recorded: false,
             planned: 0,
+            readings: measured.as_ref().map_or(0, readings),
         },
         "thermal.voxel_mm",
     )?;
@@ -230,6 +231,11 @@ pub fn material_of(spec: &MaterialSpec) -> Result<Material> {
 }
 
 /// The measured series in °C, and how many readings lay below ambient (dropped).
+/// The readings a probe series holds (a probe's time with a value).
+pub(crate) fn readings(s: &probes::Series) -> usize {
+    s.values.iter().map(|v| v.iter().flatten().count()).sum()
+}
+
 pub(crate) fn measured(p: &Probes, ambient_k: f64) -> Result<(probes::Series, usize)> {
     let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
     let file = p.file.display().to_string();

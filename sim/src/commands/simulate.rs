@@ -56,6 +56,7 @@ pub fn one_run(s: &Scenario) -> Keeps {
         runs: 1.0,
         recorded: s.output.records(),
         planned: 0,
+        readings: 0,
     }
 }
 

@@ -84,6 +84,7 @@ fn cost(file: &Path, s: &Scenario, run: &LoopRun) -> Result<()> {
         runs: 1.0,
         recorded: false,
         planned: 0,
+        readings: 0,
     };
     super::cost::check(
         &file.display().to_string(),

@@ -292,6 +292,7 @@ fn default_jobs(study: &Study) -> Result<usize> {
         runs: 1.0,
         recorded: false,
         planned: 0,
+        readings: 0,
     };
     super::cost::check_plate(&study.file, &base.thermal, &base.material, keeps)?;
     let m = crate::pipeline::deposition::material(&base.material, &base.thermal);

@@ -284,6 +284,7 @@ pub fn run(
             runs: runs * (1.0 + ahead),
             recorded: false,
             planned: 0,
+            readings: 0,
         },
         match live.voxel_m {
             Some(_) => "live.voxel_mm",
