@@ -230,12 +230,12 @@ pub fn material_of(spec: &MaterialSpec) -> Result<Material> {
     .map_err(|e| Error::input(format!("material {}: {e}", t.name)))
 }
 
-/// The measured series in °C, and how many readings lay below ambient (dropped).
 /// The readings a probe series holds (a probe's time with a value).
 pub(crate) fn readings(s: &probes::Series) -> usize {
     s.values.iter().map(|v| v.iter().flatten().count()).sum()
 }
 
+/// The measured series in °C, and how many readings lay below ambient (dropped).
 pub(crate) fn measured(p: &Probes, ambient_k: f64) -> Result<(probes::Series, usize)> {
     let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
     let file = p.file.display().to_string();
