@@ -68,11 +68,9 @@ pub fn run(
         end_s,
         super::cost::Keeps {
             copies: 2.0,
-            frames: 0,
             runs: cal.max_runs as f64 * (fit_w[1] / end_s.max(1e-9)).min(1.0) + 2.0,
-            recorded: false,
-            planned: 0,
             readings: super::replay::readings(&m),
+            ..super::cost::Keeps::ONE_RUN
         },
         "thermal.voxel_mm",
     )?;

@@ -55,6 +55,19 @@ pub struct Keeps {
     pub readings: usize,
 }
 
+impl Keeps {
+    /// One run of one model, nothing recorded, planned or read: what each command changes
+    /// from (`Keeps { copies: 2.0, ..Keeps::ONE_RUN }`).
+    pub const ONE_RUN: Keeps = Keeps {
+        copies: 1.0,
+        frames: 0,
+        runs: 1.0,
+        recorded: false,
+        planned: 0,
+        readings: 0,
+    };
+}
+
 /// Estimate the run, print the estimate on stderr, and refuse it where it cannot fit.
 pub fn check(
     file: &str,

@@ -182,8 +182,7 @@ fn keeps(s: &Scenario) -> super::cost::Keeps {
                 4.5 + (c.uncertainty.mean.len() + 2) as f64 + 4.0 * c.check_draws as f64
             }),
         recorded: s.output.records(),
-        planned: 0,
-        readings: 0,
+        ..super::cost::Keeps::ONE_RUN
     }
 }
 

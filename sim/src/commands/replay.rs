@@ -68,12 +68,8 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         &r,
         end_s,
         super::cost::Keeps {
-            copies: 1.0,
-            frames: 0,
-            runs: 1.0,
-            recorded: false,
-            planned: 0,
             readings: measured.as_ref().map_or(0, readings),
+            ..super::cost::Keeps::ONE_RUN
         },
         "thermal.voxel_mm",
     )?;

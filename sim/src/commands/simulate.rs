@@ -51,12 +51,9 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
 /// What one heat run of the scenario keeps (the cost check's input).
 pub fn one_run(s: &Scenario) -> Keeps {
     Keeps {
-        copies: 1.0,
         frames: s.output.frames,
-        runs: 1.0,
         recorded: s.output.records(),
-        planned: 0,
-        readings: 0,
+        ..Keeps::ONE_RUN
     }
 }
 

@@ -78,14 +78,7 @@ fn cost(file: &Path, s: &Scenario, run: &LoopRun) -> Result<()> {
         model: crate::pipeline::params::ThermalModel::Voxel,
         ..s.thermal.clone()
     };
-    let keeps = super::cost::Keeps {
-        copies: 1.0,
-        frames: 0,
-        runs: 1.0,
-        recorded: false,
-        planned: 0,
-        readings: 0,
-    };
+    let keeps = super::cost::Keeps::ONE_RUN;
     super::cost::check(
         &file.display().to_string(),
         &voxel,

@@ -288,11 +288,7 @@ fn default_jobs(study: &Study) -> Result<usize> {
     let copies = if study.command == "dwell" { 4.0 } else { 1.0 };
     let keeps = super::cost::Keeps {
         copies,
-        frames: 0,
-        runs: 1.0,
-        recorded: false,
-        planned: 0,
-        readings: 0,
+        ..super::cost::Keeps::ONE_RUN
     };
     super::cost::check_plate(&study.file, &base.thermal, &base.material, keeps)?;
     let m = crate::pipeline::deposition::material(&base.material, &base.thermal);

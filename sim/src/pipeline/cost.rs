@@ -308,9 +308,10 @@ pub const RECORDED_BYTES_PER_POINT_FRAME: f64 = 300.0;
 
 /// What each measured reading a replay holds costs besides the model, bytes: the reading, its
 /// prediction and comparison, and its rows in the recording (rerun's and the MCAP's). Measured
-/// as (peak RSS − the model's estimate) over the readings: 0.83 kB on the GAMMA wall's replay
-/// (174 425 readings), 1.1 kB its calibration, 1.4 kB the ORNL pad's replay (about 37 000); the
-/// largest taken (docs/PERFORMANCE.md "Replays, calibrations and the twin estimated too").
+/// as (peak RSS − the model's estimate) over the readings: 0.85 kB on the GAMMA wall's replay
+/// (174 425 readings), 1.2 kB its calibration, 1.5 kB the ORNL pad's replay (about 37 000,
+/// reckoned); about the largest, the ORNL pad's estimate 0.94 of its peak (docs/PERFORMANCE.md
+/// "Replays, calibrations and the twin estimated too").
 pub const READING_BYTES: f64 = 1400.0;
 
 /// The memory the recording of `frames` field frames of `deposits` points takes, bytes.

@@ -280,11 +280,8 @@ pub fn run(
         r.deps.last().map_or(0.0, |d| d.time),
         super::cost::Keeps {
             copies: 2.0 * runs,
-            frames: 0,
             runs: runs * (1.0 + ahead),
-            recorded: false,
-            planned: 0,
-            readings: 0,
+            ..super::cost::Keeps::ONE_RUN
         },
         match live.voxel_m {
             Some(_) => "live.voxel_mm",
