@@ -923,6 +923,53 @@ fn a_logged_build_too_big_for_the_machine_is_refused_before_it_starts() {
     }
 }
 
+/// A logged path that claims more deposits than the machine holds (one waypoint 1 km up, as a
+/// logger's wrong unit or sentinel writes it: 5 × 10⁵ deposits of 2 mm, about 400 MB) is
+/// refused before the schedule is made, by `replay` and by `follow`: exit 2, naming the
+/// toolpath file, `toolpath.deposit_mm`, the count and where the longest segment ends; nothing
+/// written. (Before, the schedule was made, and its supports found by comparing every pair.)
+#[test]
+fn a_path_that_claims_more_deposits_than_fit_is_refused_before_they_are_made() {
+    let dir = scratch("replay_claims");
+    let (scenario, lines) = small_wall(&dir, "");
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let path = std::fs::read_to_string(dir.join("path.csv")).unwrap();
+    let far = path.replacen("28,20,0,3,1", "28,20,0,1000000,1", 1);
+    assert_ne!(
+        far, path,
+        "the second track's end is where the test expects it"
+    );
+    std::fs::write(dir.join("path.csv"), far).unwrap();
+    for command in ["replay", "follow"] {
+        let out = dir.join(command);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+            .args([command, scenario.to_str().unwrap(), "-o"])
+            .arg(&out)
+            .args(
+                ["--until-idle-s", "1"]
+                    .iter()
+                    .take(2 * usize::from(command == "follow")),
+            )
+            .env("WAAMTWIN_MEMORY_BYTES", "1e8")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{command}: {err}");
+        for needle in [
+            "path.csv",
+            "toolpath.deposit_mm = 2 makes 5.001e5",
+            "ends at t = 28 s, 1.0000e6 mm long",
+        ] {
+            assert!(err.contains(needle), "{command}: no {needle:?} in {err}");
+        }
+        assert!(
+            !err.contains("estimate: "),
+            "{command} made the schedule: {err}"
+        );
+        assert!(!out.exists(), "{command} wrote its folder");
+    }
+}
+
 /// The readings a replay holds count in its memory (`pipeline::cost::READING_BYTES`): the small
 /// wall's model is about 12.4 MB, its 963 readings 1.35 MB more; within 13 MB it is refused,
 /// and the same replay with the probe file cut to two rows fits and runs.

@@ -5,7 +5,8 @@
 use crate::error::{Error, Result};
 use crate::part::load_part;
 use crate::pipeline::cost::{
-    BASE_BYTES, Estimate, bytes, estimate, plan_bytes, plan_vertices_to_fit, voxel_to_fit,
+    BASE_BYTES, Estimate, REPLAY_DEPOSIT_BYTES, bytes, estimate, plan_bytes, plan_vertices_to_fit,
+    voxel_to_fit,
 };
 use crate::pipeline::deposition::material;
 use crate::pipeline::params::{Material, ThermalModel, ThermalSettings};
@@ -53,6 +54,9 @@ pub struct Keeps {
     /// The measured readings the command holds, compares and records (a replay's probes; 0:
     /// none, or not known before the run, as `follow`'s growing file).
     pub readings: usize,
+    /// The deposits of a logged path the command holds besides its model's cells (a replay's:
+    /// [`REPLAY_DEPOSIT_BYTES`] each; 0 where the estimate's frames count them).
+    pub deposits: usize,
 }
 
 impl Keeps {
@@ -65,6 +69,7 @@ impl Keeps {
         recorded: false,
         planned: 0,
         readings: 0,
+        deposits: 0,
     };
 }
 
@@ -105,7 +110,11 @@ pub fn check_replay(
         Some(p) if step(p) < step(&r.material) => p,
         _ => &r.material,
     };
-    held(file, (t, m), &r.deps, end_s, keeps, key)
+    let deposits = Keeps {
+        deposits: r.deps.len(),
+        ..keeps
+    };
+    held(file, (t, m), &r.deps, end_s, deposits, key)
 }
 
 fn held(
@@ -132,7 +141,8 @@ fn held(
     if keeps.recorded {
         e.bytes += crate::pipeline::cost::recording_bytes(deposits.len(), keeps.frames);
     }
-    e.bytes += crate::pipeline::cost::READING_BYTES * keeps.readings as f64;
+    e.bytes += crate::pipeline::cost::READING_BYTES * keeps.readings as f64
+        + REPLAY_DEPOSIT_BYTES * keeps.deposits as f64;
     eprintln!("{}", e.line());
     if t.model == ThermalModel::ThinWall
         && let Some(c) = crate::pipeline::resolution::coarse_deposits(deposits, t.node_m)
@@ -145,6 +155,30 @@ fn held(
         return Err(refusal(file, t, &e, avail, key));
     }
     Ok(e)
+}
+
+/// A logged path's deposits, counted before they are made (`deposits` of them, the longest
+/// deposited segment `longest`: its end's time and its length, mm), refused where they alone
+/// cannot fit: a waypoint a kilometre off, or a `toolpath.deposit_mm` of a micrometre, would
+/// otherwise make the schedule until the memory ran out. Silent where they fit: the run's
+/// estimate follows once the schedule is made.
+pub fn check_deposits(
+    file: &str,
+    deposits: f64,
+    deposit_mm: f64,
+    longest: (f64, f64),
+) -> Result<()> {
+    let need = deposits * REPLAY_DEPOSIT_BYTES;
+    match available_memory() {
+        Some(avail) if need > avail => Err(Error::input(format!(
+            "{file}: the toolpath cut into deposits of at most toolpath.deposit_mm = {deposit_mm} makes {deposits:.3e} of them, about {}, and this machine has {} available (the longest deposited segment ends at t = {} s, {:.4e} mm long); expected a toolpath in mm whose deposited segments the machine ran, or a larger toolpath.deposit_mm",
+            bytes(need),
+            bytes(avail),
+            longest.0,
+            longest.1
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// Refuse a run whose plate alone cannot fit, before any planning (silently where it fits:

@@ -24,6 +24,13 @@ use thermal::material::Material;
 /// every `every_s`.
 pub(crate) fn set_up(s: &ReplayScenario, every_s: f64) -> Result<Replay> {
     let path = waypoints(s)?;
+    super::cost::check_deposits(
+        &s.toolpath.display().to_string(),
+        replay::count(&path, &s.laying),
+        // The metre's conversion noise rounded away, as the scenario's checks show a value.
+        (s.laying.deposit_m * 1e12).round() / 1e9,
+        longest_segment(&path),
+    )?;
     let probes = s.probes.as_ref().map_or(Vec::new(), |p| {
         p.points.iter().map(|q| q.position_m).collect()
     });
@@ -35,6 +42,17 @@ pub(crate) fn set_up(s: &ReplayScenario, every_s: f64) -> Result<Replay> {
         &path, &s.laying, &s.thermal, materials, s.source, probes, every_s,
     )
     .map_err(|e| Error::from(e).context(s.toolpath.display()))
+}
+
+/// The longest deposited segment of `path`: its end's time, s, and its length, mm.
+fn longest_segment(path: &[toolpath::Waypoint]) -> (f64, f64) {
+    path.windows(2)
+        .filter(|w| w[1].on)
+        .map(|w| {
+            let d = (0..3).map(|k| (w[1].position_mm[k] - w[0].position_mm[k]).powi(2));
+            (w[1].t_s, d.sum::<f64>().sqrt())
+        })
+        .fold((0.0, 0.0), |a, b| if b.1 > a.1 { b } else { a })
 }
 
 /// The probes' names, in the scenario's order.

@@ -22,17 +22,34 @@ pub enum Line {
     Row(f64, Vec<Option<f64>>),
 }
 
+/// The hottest reading a probe file may hold, in its own unit (°C or K alike): no metal is
+/// liquid above it (iron boils at 3 134 K, tungsten, the highest, at 5 828 K: CRC Handbook of
+/// Chemistry and Physics), and a camera calibrated for metal saturates far below it. A value
+/// above it is a logger's sentinel or a broken field, not a temperature, and the file is
+/// refused where it stands rather than compared (a reading of 1e30 °C made replay's RMS 4e29).
+pub const HOTTEST_READING: f64 = 6000.0;
+
+/// What a column holds: a probe's temperature, or a machine's signal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    /// 0 is no reading (a logger starting up writes zeros: the ORNL log's first row), and
+    /// nothing reads above [`HOTTEST_READING`].
+    Temperature,
+    /// 0 is a value (an arc off, no current).
+    Signal,
+}
+
 /// Line `n` (1-based) of a probe file: columns `columns` (0-based) against `time_column`. A
 /// message without the file's name where it does not read (the caller names the file, and in
-/// live mode counts it and goes on). A reading of exactly 0 is none (a logger starting up
-/// writes zeros: the ORNL log's first row).
+/// live mode counts it and goes on). A reading of exactly 0 is none; one above
+/// [`HOTTEST_READING`] does not read.
 pub fn line(
     text: &str,
     n: usize,
     time_column: usize,
     columns: &[usize],
 ) -> std::result::Result<Line, String> {
-    read(text, n, time_column, columns, true)
+    read(text, n, time_column, columns, Kind::Temperature)
 }
 
 /// [`line`] for a machine's signals, whose 0 is a value (an arc off, no current).
@@ -42,7 +59,7 @@ pub fn signals(
     time_column: usize,
     columns: &[usize],
 ) -> std::result::Result<Line, String> {
-    read(text, n, time_column, columns, false)
+    read(text, n, time_column, columns, Kind::Signal)
 }
 
 fn read(
@@ -50,7 +67,7 @@ fn read(
     n: usize,
     time_column: usize,
     columns: &[usize],
-    zero_is_none: bool,
+    kind: Kind,
 ) -> std::result::Result<Line, String> {
     if text.trim().is_empty() || text.trim_start().starts_with('#') {
         return Ok(Line::Nothing);
@@ -89,8 +106,15 @@ fn read(
     for &c in columns {
         values.push(match f[c] {
             "" => None,
-            text => match text.parse::<f64>() {
-                Ok(v) if v.is_finite() => (!zero_is_none || v != 0.0).then_some(v),
+            text => match (text.parse::<f64>(), kind) {
+                (Ok(v), Kind::Temperature) if v > HOTTEST_READING => {
+                    return Err(format!(
+                        "column {c} = {text}; expected a temperature of at most \
+                         {HOTTEST_READING} (°C or K: hotter than any metal boils)"
+                    ));
+                }
+                (Ok(v), Kind::Temperature) if v.is_finite() => (v != 0.0).then_some(v),
+                (Ok(v), Kind::Signal) if v.is_finite() => Some(v),
                 _ => return Err(format!("column {c} = {text:?}; expected a number")),
             },
         });
@@ -157,5 +181,30 @@ mod tests {
         assert!(e.message.contains("line 2: 1 fields"), "{}", e.message);
         let e = series("1,1\n0,1\n", "ir.csv", 0, &[1]).unwrap_err();
         assert!(e.message.contains("time 0 after 1"), "{}", e.message);
+    }
+
+    /// A sentinel or a broken field far above any metal's temperature is refused at its line,
+    /// not compared; the hottest a file may hold still reads, and a signal is not a temperature.
+    #[test]
+    fn a_reading_hotter_than_any_metal_names_its_line() {
+        let e = series("t,tc1\n0,20\n1,1e30\n", "tc.csv", 0, &[1]).unwrap_err();
+        assert!(
+            e.message
+                .contains("tc.csv line 3: column 1 = 1e30; expected a temperature"),
+            "{}",
+            e.message
+        );
+        let e = series("0,20\n1,9999\n", "tc.csv", 0, &[1]).unwrap_err();
+        assert!(
+            e.message.contains("line 2: column 1 = 9999"),
+            "{}",
+            e.message
+        );
+        let s = series("0,20\n1,6000\n", "tc.csv", 0, &[1]).unwrap();
+        assert_eq!(s.values[0], vec![Some(20.0), Some(6000.0)]);
+        let super::Line::Row(_, v) = super::signals("1,7000", 2, 0, &[1]).unwrap() else {
+            panic!("a row expected");
+        };
+        assert_eq!(v, vec![Some(7000.0)]);
     }
 }

@@ -10,7 +10,7 @@ pub mod schedule;
 mod setup;
 
 pub use compare::*;
-pub use schedule::{Laying, deposits};
+pub use schedule::{Laying, count, deposits};
 pub use setup::*;
 
 use thermal::schedule::Deposit;
