@@ -122,7 +122,21 @@ impl fmt::Display for ShapeError {
                 key,
                 value,
                 expected,
-            } => write!(f, "{key} = {value}; expected {expected}"),
+            } => write!(f, "{key} = {}; expected {expected}", Typed(*value)),
+        }
+    }
+}
+
+/// A value as a person types it: as written at ordinary sizes, in exponent form where its
+/// digits would run on (`1e300`, not three hundred digits).
+struct Typed(f64);
+
+impl fmt::Display for Typed {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0;
+        match v != 0.0 && v.is_finite() && !(1e-9..1e15).contains(&v.abs()) {
+            true => write!(f, "{v:e}"),
+            false => write!(f, "{v}"),
         }
     }
 }
@@ -400,5 +414,11 @@ mod tests {
         .unwrap_err();
         assert_eq!(e.key(), "radius_mm");
         assert_eq!(Shape::from_params("cube", &[]).unwrap_err().key(), "shape");
+        // A value far out of range as a person writes it, not its three hundred digits.
+        let e = Shape::from_params("hemisphere", &[("radius_mm", Some(1e300))]).unwrap_err();
+        assert!(
+            e.to_string().starts_with("radius_mm = 1e300; expected"),
+            "{e}"
+        );
     }
 }

@@ -207,6 +207,42 @@ fn in_celsius(values: &mut [Option<f64>], kelvin: bool, ambient_k: f64, c: &mut 
     }
 }
 
+/// How much of the probe file [`readings_expected`] reads for its pace, bytes.
+const PACE_HEAD_BYTES: u64 = 64 * 1024;
+
+/// The readings the twin will hold by the build's end `end_s`, as the probe file's first rows
+/// pace them: every probe at every row (an upper bound: a camera's pixels read nothing until
+/// metal is there), the rows at the pace of the file's first 64 kB. None where the file is not
+/// there yet or has fewer than two rows: a build not begun says nothing of its pace.
+fn readings_expected(p: &Probes, end_s: f64) -> Option<usize> {
+    use std::io::Read;
+    let mut head = String::new();
+    std::fs::File::open(&p.file)
+        .ok()?
+        .take(PACE_HEAD_BYTES)
+        .read_to_string(&mut head)
+        .ok()?;
+    // The last line may be cut by the head's end, or still being written.
+    let whole = &head[..head.rfind('\n')?];
+    let times: Vec<f64> = whole
+        .lines()
+        .enumerate()
+        .filter_map(
+            |(k, text)| match probes::line(text, k + 1, p.time_column, &[]) {
+                Ok(Line::Row(t, _)) => Some(t),
+                _ => None,
+            },
+        )
+        .collect();
+    let (&first, &last) = (times.first()?, times.last()?);
+    if times.len() < 2 || last <= first {
+        return None;
+    }
+    let every_s = (last - first) / (times.len() - 1) as f64;
+    let rows = ((end_s - first) / every_s).max(0.0) + 1.0;
+    Some((rows.max(times.len() as f64) * p.points.len() as f64) as usize)
+}
+
 /// Set by Ctrl-C ([`catch_ctrl_c`]) or by [`interrupt`]: the run ends at its next look, as
 /// it ends when the data stop, with every output written.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -281,6 +317,7 @@ pub fn run(
         super::cost::Keeps {
             copies: 2.0 * runs,
             runs: runs * (1.0 + ahead),
+            readings: readings_expected(&p, r.deps.last().map_or(0.0, |d| d.time)).unwrap_or(0),
             ..super::cost::Keeps::ONE_RUN
         },
         match live.voxel_m {
@@ -1140,4 +1177,43 @@ fn alarm_json(a: &Alarm) -> serde_json::Value {
         "advised_dwell_s": a.advised_dwell_s,
         "extra_dwell_s": a.extra_s(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::readings_expected;
+    use crate::scenario::replay::{Probe, Probes};
+
+    /// Every probe at every row the file will have by the build's end, at the pace of its first
+    /// rows (a header and a line still being written skipped); nothing from a file not there or
+    /// of one row.
+    #[test]
+    fn the_readings_to_come_are_paced_by_the_files_first_rows() {
+        let dir = std::env::temp_dir().join(format!("waamtwin_pace_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let probe = |column| Probe {
+            name: format!("tc{column}"),
+            column,
+            position_m: [0.0; 3],
+        };
+        let probes = Probes {
+            file: dir.join("log.csv"),
+            kelvin: false,
+            time_column: 0,
+            points: vec![probe(1), probe(2), probe(3)],
+        };
+        assert_eq!(readings_expected(&probes, 100.0), None, "no file yet");
+        std::fs::write(&probes.file, "t_s,a,b,c\n10,20,20,20\n").unwrap();
+        assert_eq!(readings_expected(&probes, 100.0), None, "one row");
+        std::fs::write(
+            &probes.file,
+            "t_s,a,b,c\n10,20,20,20\n10.5,21,20,20\n11,22,2",
+        )
+        .unwrap();
+        // Rows every 0.5 s from 10 s to 100 s: 181, three probes each.
+        assert_eq!(readings_expected(&probes, 100.0), Some(543));
+        // A file already longer than the build: its own rows.
+        assert_eq!(readings_expected(&probes, 10.2), Some(6));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

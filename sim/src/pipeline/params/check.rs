@@ -56,7 +56,11 @@ impl Unit {
 
     /// An SI value in the interface's unit, as a person reads it: the conversion's last-bit
     /// noise rounded away.
-    fn shown(self, si: f64) -> f64 {
+    fn shown(self, si: f64) -> Shown {
+        Shown(self.in_unit(si))
+    }
+
+    fn in_unit(self, si: f64) -> f64 {
         let v = match self {
             Unit::Same => si,
             Unit::Milli => si / 1e-3,
@@ -69,6 +73,27 @@ impl Unit {
         } else {
             v
         }
+    }
+}
+
+/// A value in a message: as written where it is of a size a person types, in exponent form
+/// where its digits would run on (`1e300`, not three hundred digits; `1e-12`).
+#[derive(Clone, Copy, PartialEq)]
+struct Shown(f64);
+
+impl fmt::Display for Shown {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0;
+        match v != 0.0 && v.is_finite() && !(1e-9..1e15).contains(&v.abs()) {
+            true => write!(f, "{v:e}"),
+            false => write!(f, "{v}"),
+        }
+    }
+}
+
+impl fmt::Debug for Shown {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(self, f)
     }
 }
 
@@ -621,5 +646,28 @@ mod tests {
             t.check().unwrap_err().to_string(),
             "thermal.deposit_c = 3000.5; expected between 500 and 3000"
         );
+    }
+
+    /// A value far out of range is shown as a person would write it, not as the three hundred
+    /// digits of its decimal expansion; one of ordinary size as typed.
+    #[test]
+    fn a_huge_or_tiny_value_is_shown_in_exponent_form() {
+        let t = ThermalSettings {
+            lead_m: 1e300,
+            ..Default::default()
+        };
+        assert_eq!(
+            t.check().unwrap_err().to_string(),
+            "thermal.lead_mm = 1e303; expected between 0 and 1000"
+        );
+        let t = ThermalSettings {
+            plate_m: [0.25, 1e13, 0.01],
+            ..Default::default()
+        };
+        assert_eq!(
+            t.check().unwrap_err().to_string(),
+            "thermal.plate_mm = [250, 1e16, 10]; expected three sizes in (0, 10000] mm (entry 1 is 1e16)"
+        );
+        assert_eq!(super::Shown(-2.5e-3).to_string(), "-0.0025");
     }
 }
