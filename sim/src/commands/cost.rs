@@ -51,11 +51,13 @@ pub struct Keeps {
     /// The vertices of the part the command planned first (0: none counted): the plan's peak,
     /// shown beside the run's memory where it is the larger ([`plan_bytes`]).
     pub planned: usize,
-    /// The measured readings the command holds, compares and records (a replay's probes; 0:
-    /// none, or not known before the run, as `follow`'s growing file).
+    /// The measured readings the command holds, compares and records (a replay's probes,
+    /// those `follow`'s file will have; 0: none, or not known before the run, as a file
+    /// `follow` finds with fewer than two rows).
     pub readings: usize,
-    /// The deposits of a logged path the command holds besides its model's cells (a replay's:
-    /// [`REPLAY_DEPOSIT_BYTES`] each; 0 where the estimate's frames count them).
+    /// The deposits of a logged path the command holds besides its model's cells
+    /// ([`REPLAY_DEPOSIT_BYTES`] each, set by [`check_replay`]; 0 for a planned part, whose
+    /// points the fitted constants hold).
     pub deposits: usize,
 }
 
