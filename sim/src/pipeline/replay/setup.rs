@@ -1,6 +1,6 @@
 //! A replay set up once and run at any parameters: what replay, calibrate and follow share.
 //!
-//! The schedule is cut once (finding supports is quadratic in the deposits); a run at another
+//! The schedule is cut once (its supports found once, binned); a run at another
 //! efficiency rescales its heat (η·P·t is linear in η), one at other losses builds its model
 //! with them. The measurements come in as a [`Series`] the commands read; nothing here touches
 //! a file.
