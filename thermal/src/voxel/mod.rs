@@ -753,13 +753,13 @@ impl VoxelModel {
 
     /// The cells [`Self::lay`] looks at, as index ranges: the cube round the deposit as wide as
     /// its reach (width or support, and its length), cut (`cut`) to the box round the bead's
-    /// own segment where that is tighter (the cube bounds what a deposit shorter than a voxel
-    /// takes: its tangent is then no direction). Every cell the deposit takes lies in that box: half a
+    /// own segment where that is tighter. Every cell the deposit takes lies in that box: half a
     /// voxel past either end along the segment (`prev` to the deposit, `len` long), half the
     /// width across it, and in the plane of the tangent and the tool axis within the height
-    /// window over the axis's angle to the tangent; a voxel's margin takes rounding. A deposit
-    /// much longer than a voxel (`deposit_mm` 100 on 2 mm voxels) scanned a cube as wide as
-    /// it is long, the run spending 98.6 % of its time here.
+    /// window over the axis's angle to the tangent; a voxel's margin takes rounding. Where the
+    /// deposit is no longer than a voxel, or lies along the tool axis, the cube alone bounds
+    /// what it takes. A deposit much longer than a voxel (`deposit_mm` 100 on 2 mm voxels)
+    /// scanned a cube as wide as it is long, the run spending 98.6 % of its time here.
     fn scan_range(
         &self,
         d: &Deposit,
@@ -2126,10 +2126,10 @@ mod tests {
     }
 
     /// `lay` looks only at the cells its scan range holds, and lays what a scan of the whole
-    /// cube round each deposit lays, cell for cell and in the same order: on the helix (deposits of 3 mm, 2 mm
-    /// voxels), on a wall of long deposits (40 mm each, some with the tool tilted 27°, one
-    /// climbing 4 mm, beads 12 mm wide and 1 mm, narrower than a voxel), and on a wall whose tool
-    /// axis lies nearly along the travel (where the cube stands).
+    /// cube round each deposit lays, cell for cell and in the same order: on the helix
+    /// (deposits of 3 mm, 2 mm voxels), on a wall of long deposits (40 mm each, some with the
+    /// tool tilted 27°, one climbing 4 mm, beads 12 mm wide and 1 mm, narrower than a voxel),
+    /// and on a wall whose tool axis lies nearly along the travel (where the cube stands).
     #[test]
     fn the_scan_range_holds_every_cell_a_deposit_takes() {
         let (helix_deps, settings) = three_revolutions(100.0);

@@ -83,10 +83,10 @@ pub fn deposits(path: &[Waypoint], l: &Laying) -> Vec<Deposit> {
 /// across and 0.3–1.7 layers below.
 ///
 /// The earlier deposits are binned as they come on a grid of half a width across and a layer
-/// high, and a deposit looks in the 3 × 3 columns round it over the three layers its window
-/// spans: linear in the deposits where comparing each with every earlier one was quadratic
-/// (a logged build of 75 400 deposits took 9.5 s to set up, one of a metre-class part's
-/// 550 000 would have taken minutes before its cost was shown).
+/// high, and a deposit looks in the 3 × 3 columns round it over the (at most three) layers its
+/// window spans: linear in the deposits where comparing each with every earlier one was
+/// quadratic (a logged build of 86 400 deposits took 9.5 s to set up, one of a metre-class
+/// part's 550 000 would have taken minutes before its cost was shown).
 fn supports(deps: &[Deposit], width: f64, height: f64) -> Vec<Option<usize>> {
     let (across_m, up_m) = (width / 2.0, height);
     let cell = |p: [f64; 3]| -> [i64; 3] {
