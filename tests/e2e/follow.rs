@@ -942,14 +942,14 @@ fn a_path_that_claims_more_deposits_than_fit_is_refused_before_they_are_made() {
     std::fs::write(dir.join("path.csv"), far).unwrap();
     for command in ["replay", "follow"] {
         let out = dir.join(command);
+        let idle: &[&str] = match command {
+            "follow" => &["--until-idle-s", "1"],
+            _ => &[],
+        };
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
             .args([command, scenario.to_str().unwrap(), "-o"])
             .arg(&out)
-            .args(
-                ["--until-idle-s", "1"]
-                    .iter()
-                    .take(2 * usize::from(command == "follow")),
-            )
+            .args(idle)
             .env("WAAMTWIN_MEMORY_BYTES", "1e8")
             .output()
             .unwrap();

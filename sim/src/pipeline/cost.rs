@@ -308,8 +308,8 @@ pub const RECORDED_BYTES_PER_POINT_FRAME: f64 = 300.0;
 
 /// What each deposit of a logged path holds in a replay, bytes: the schedule, its copy in each
 /// run and the run's per-deposit state. Measured as (peak RSS − the same path's at 100
-/// deposits) over the deposits, one 100 mm track cut finer and finer on 2 mm voxels: 650 B at
-/// 10 000 deposits, 780 B at 50 001 (docs/PERFORMANCE.md "A logged path's deposits counted
+/// deposits) over the deposits, one 100 mm track cut finer and finer on 2 mm voxels: 676 B at
+/// 10 000 deposits, 803 B at 50 001 (docs/PERFORMANCE.md "A logged path's deposits counted
 /// first").
 pub const REPLAY_DEPOSIT_BYTES: f64 = 800.0;
 
