@@ -699,18 +699,24 @@ impl VoxelModel {
         let prev = segment_start(deps, i);
         let dx = self.settings.size;
         let axis = d.axis;
-        let seg = sub(d.position, prev);
-        let len = norm(seg);
-        let tangent = if len > 1e-12 {
-            scale(seg, 1.0 / len)
-        } else {
-            cross(axis, [0.0, 0.0, 1.0])
-        };
-        let across = normalize(cross(axis, tangent));
+        let len = norm(sub(d.position, prev));
+        let (tangent, across, spot) = bead_frame(deps, i);
         let (below, sink) = (self.below[i], self.sink[i]);
         let weights =
             FACE_NORMALS.map(|n| (dot(n, across).abs() + dot(n, axis).abs()).min(1.0) as f32);
-        let (lo, hi) = self.scan_range(d, (prev, len), (tangent, across), (below, sink), cut);
+        // The bead's thickness along its normal (across both the travel and `across`): the
+        // height window's reach there where the travel is square to the axis, a column W wide
+        // where the torch climbs along its own axis and the window bounds only the travel.
+        let normal = cross(tangent, across);
+        let sin = dot(axis, normal).abs();
+        let thick = d.width + 2.0 * below.abs().max(sink.abs()) * sin;
+        // A column (`column_growth`) stands under the path point, W wide across the axis both
+        // ways, its height window alone bounding it along the axis.
+        let column = column_growth(deps, i).map(|_| cross(axis, across));
+        let (lo, hi) = match column {
+            Some(side) if cut => self.column_range(d, (across, side), (below, sink)),
+            _ => self.scan_range(d, (prev, len), (tangent, across), (below, sink), cut),
+        };
         for iz in lo[2]..=hi[2] {
             for iy in lo[1]..=hi[1] {
                 for ix in lo[0]..=hi[0] {
@@ -719,10 +725,11 @@ impl VoxelModel {
                         continue;
                     }
                     let r = sub(c, prev);
-                    let (s_along, s_up, s_across) = (
+                    let (s_along, s_up, s_across, s_normal) = (
                         dot(r, tangent),
                         dot(sub(c, d.position), axis),
                         dot(r, across),
+                        dot(r, normal),
                     );
                     // Along the segment with half a voxel to spare (a curved path's chords
                     // would leave gaps at the outside of each bend; a voxel taken twice is laid
@@ -733,12 +740,25 @@ impl VoxelModel {
                     // either end is taken (rounding took it at the start, dropped it at the
                     // end, and a pad as long as its plate came out a row short).
                     let eps = 1e-6 * dx;
-                    let inside_len = s_along >= -dx / 2.0 - eps && s_along <= len + dx / 2.0 + eps;
-                    if inside_len
-                        && s_up <= -sink - eps
-                        && s_up > -below - eps
-                        && across_bead(s_across, d.width, dx)
-                    {
+                    let inside = match (column, spot) {
+                        (Some(side), _) => {
+                            let r = sub(c, d.position);
+                            across_bead(dot(r, across), d.width, dx)
+                                && across_bead(dot(r, side), d.width, dx)
+                        }
+                        (None, false) => {
+                            s_along >= -dx / 2.0 - eps
+                                && s_along <= len + dx / 2.0 + eps
+                                && across_bead(s_across, d.width, dx)
+                                && across_bead(s_normal, thick, dx)
+                        }
+                        (None, true) => {
+                            across_bead(s_along, d.width, dx)
+                                && across_bead(s_across, d.width, dx)
+                                && across_bead(s_normal, thick, dx)
+                        }
+                    };
+                    if inside && s_up <= -sink - eps && s_up > -below - eps {
                         let before = self.cell.len();
                         let temp = self.settings.deposit_temperature;
                         let v = self.add([ix, iy, iz], temp, weights, false);
@@ -755,10 +775,9 @@ impl VoxelModel {
     /// its reach (width or support, and its length), cut (`cut`) to the box round the bead's
     /// own segment where that is tighter. Every cell the deposit takes lies in that box: half a
     /// voxel past either end along the segment (`prev` to the deposit, `len` long), half the
-    /// width across it, and in the plane of the tangent and the tool axis within the height
-    /// window over the axis's angle to the tangent; a voxel's margin takes rounding. Where the
-    /// deposit is no longer than a voxel, or lies along the tool axis, the cube alone bounds
-    /// what it takes. A deposit much longer than a voxel (`deposit_mm` 100 on 2 mm voxels)
+    /// width across it, and along the normal within the height window over the axis's angle
+    /// to the tangent and within the bead's thickness; a voxel's margin takes rounding. Where
+    /// the deposit is no longer than a voxel the cube alone bounds what it takes. A deposit much longer than a voxel (`deposit_mm` 100 on 2 mm voxels)
     /// scanned a cube as wide as it is long, the run spending 98.6 % of its time here.
     fn scan_range(
         &self,
@@ -778,14 +797,19 @@ impl VoxelModel {
         });
         // The axis in the plane of the tangent and the normal: the height window bounds a
         // cell's offset along the normal by its span over the axis's sine (unbounded as the
-        // axis nears the tangent: the cube then stands).
+        // axis nears the tangent), and the bead's thickness (`lay`) by W/2 and the window's
+        // share there.
         let normal = cross(tangent, across);
-        let (cos, sin) = (dot(d.axis, tangent), dot(d.axis, normal));
-        if cut && len > dx && sin.abs() > 0.1 {
+        let (cos, sin) = (dot(d.axis, tangent).abs(), dot(d.axis, normal).abs());
+        if cut && len > dx {
             let along = len / 2.0 + dx / 2.0;
             let half_across = (d.width / 2.0).max(dx / 2.0);
             let up = below.abs().max(sink.abs());
-            let out = (up + (len + dx / 2.0) * cos.abs()) / sin.abs();
+            let window = match sin > 1e-9 {
+                true => (up + (len + dx / 2.0) * cos) / sin,
+                false => f64::INFINITY,
+            };
+            let out = window.min((d.width / 2.0 + up * sin).max(dx / 2.0));
             for k in 0..3 {
                 let centre = prev[k] + tangent[k] * len / 2.0;
                 let half = tangent[k].abs() * along
@@ -796,6 +820,32 @@ impl VoxelModel {
                 hi[k] = hi[k].min(index(centre + half, k).ceil() as usize);
             }
         }
+        (lo, hi)
+    }
+
+    /// The cells a column (`column_growth`) may take, as index ranges: the box round its
+    /// height window under the path point, half its width across the axis each way (`sides`)
+    /// and a voxel's margin. Its window may lie far below a torch that outruns it, where the
+    /// cube round the segment would have to reach.
+    fn column_range(
+        &self,
+        d: &Deposit,
+        sides: ([f64; 3], [f64; 3]),
+        (below, sink): (f64, f64),
+    ) -> ([usize; 3], [usize; 3]) {
+        let dx = self.settings.size;
+        let centre = sub(d.position, scale(d.axis, (below + sink) / 2.0));
+        let half_width = (d.width / 2.0).max(dx / 2.0);
+        let index = |x: f64, k: usize| (x - self.origin[k]) / dx;
+        let half = |k: usize| {
+            d.axis[k].abs() * (below - sink).abs() / 2.0
+                + (sides.0[k].abs() + sides.1[k].abs()) * half_width
+                + dx
+        };
+        let lo = std::array::from_fn(|k| index(centre[k] - half(k), k).floor().max(0.0) as usize);
+        let hi = std::array::from_fn(|k| {
+            (index(centre[k] + half(k), k).ceil().max(0.0) as usize).min(self.dims[k] - 1)
+        });
         (lo, hi)
     }
 
@@ -1255,24 +1305,18 @@ impl VoxelModel {
     }
 
     /// Goldak source of the burn's heat over its arc time, for deposit i, on the active voxels
-    /// around the top of its settled metal, oriented along its segment.
+    /// around the top of its settled metal, oriented along its travel across the torch
+    /// ([`arc_frame`]).
     fn source(&self, deps: &[Deposit], i: usize, burn: Burn, out: &mut Vec<(u32, f32)>) {
         out.clear();
         let d = &deps[i];
-        let prev = segment_start(deps, i);
         // The pool sits on the metal, `sink` below the path point where the metal settled.
         let pool = sub(d.position, scale(d.axis, self.sink[i]));
         let heat = burn.heat;
         if burn.arc_time <= 0.0 || heat <= 0.0 {
             return;
         }
-        let seg = sub(d.position, prev);
-        let tangent = if norm(seg) > 1e-12 {
-            normalize(seg)
-        } else {
-            cross(d.axis, [0.0, 0.0, 1.0])
-        };
-        let across = normalize(cross(d.axis, tangent));
+        let (tangent, across) = arc_frame(deps, i);
         let w = match self.settings.source {
             HeatSource::Gaussian { radius } => {
                 let w = self.surface(pool, d.axis, d.height, radius);
@@ -2039,6 +2083,67 @@ fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     (ap[0] - t * ab[0]).hypot(ap[1] - t * ab[1])
 }
 
+/// Deposit i's bead frame: the direction it runs and the direction across it, and whether it
+/// is a spot. Along its segment; a deposit with no segment (a path's first point, a torch
+/// standing) along the way the path goes on across the torch (the next deposit's direction less
+/// its part along the axis, where that deposit continues this one), so that the bead starts
+/// there W wide; where nothing goes on across the torch (a strut's foot), across the axis and a
+/// spot, W wide every way. Across: square to the travel and the axis, or, where the torch
+/// climbs along its own axis and the two give none, any direction square to the travel (the
+/// bead is then a column, as wide every way across it: `lay`'s thickness).
+fn bead_frame(deps: &[Deposit], i: usize) -> ([f64; 3], [f64; 3], bool) {
+    let d = &deps[i];
+    let run = |k: usize| {
+        let seg = sub(deps[k].position, segment_start(deps, k));
+        (norm(seg) > 1e-12).then(|| normalize(seg))
+    };
+    let (tangent, spot) = match run(i) {
+        Some(t) => (t, false),
+        None => {
+            let next = match deps.get(i + 1) {
+                Some(n) if n.start.is_none() => run(i + 1),
+                _ => None,
+            };
+            match next.map(|t| sub(t, scale(d.axis, dot(t, d.axis)))) {
+                Some(t) if norm(t) > 1e-6 => (normalize(t), false),
+                _ => (perpendicular(d.axis), true),
+            }
+        }
+    };
+    let across = cross(d.axis, tangent);
+    let across = match norm(across) > 1e-9 {
+        true => normalize(across),
+        false => perpendicular(tangent),
+    };
+    (tangent, across, spot)
+}
+
+/// The arc's frame for Goldak's ellipsoid at deposit i: the travel across the torch (the bead's
+/// direction less its part along the axis: a climbing helix's source lies square to its torch,
+/// as Goldak's does to the work, not sheared along the climb) and across it; where the torch
+/// moves along its own axis, any direction square to it.
+fn arc_frame(deps: &[Deposit], i: usize) -> ([f64; 3], [f64; 3]) {
+    let axis = deps[i].axis;
+    let (tangent, _, _) = bead_frame(deps, i);
+    let travel = sub(tangent, scale(axis, dot(tangent, axis)));
+    let travel = match norm(travel) > 1e-6 {
+        true => normalize(travel),
+        false => perpendicular(axis),
+    };
+    (travel, cross(axis, travel))
+}
+
+/// A unit vector square to the unit vector `v`: `v` crossed with the coordinate axis least
+/// along it.
+fn perpendicular(v: [f64; 3]) -> [f64; 3] {
+    let k = (0..3)
+        .min_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()))
+        .unwrap_or(0);
+    let mut e = [0.0; 3];
+    e[k] = 1.0;
+    normalize(cross(v, e))
+}
+
 /// Where each deposit's metal settles. The path point is where the torch is; the molten bead
 /// lies on what is beneath it, H thick. Per deposit, along its build direction down from the
 /// path point: `below`, the distance to the top of what it lies on (its support's settled top,
@@ -2051,15 +2156,35 @@ fn settle(deps: &[Deposit]) -> (Vec<f64>, Vec<f64>) {
         Vec::with_capacity(deps.len()),
         Vec::with_capacity(deps.len()),
     );
-    for d in deps {
-        let b = match d.support {
+    for (i, d) in deps.iter().enumerate() {
+        let growth = column_growth(deps, i);
+        // A column grows on the metal its torch climbed from, however far behind it lags (a
+        // logged path's supports are looked for within a layer of the path point).
+        let support = match (d.support, growth) {
+            (None, Some(_)) if i > 0 && d.start.is_none() => Some(i - 1),
+            (support, _) => support,
+        };
+        let b = match support {
             Some(s) => dot(sub(d.position, deps[s].position), d.axis) + sink[s],
             None => d.position[2] / d.axis[2].max(0.1),
         };
         below.push(b);
-        sink.push((b - d.height).max(0.0));
+        sink.push((b - growth.unwrap_or(d.height)).max(0.0));
     }
     (below, sink)
+}
+
+/// How far deposit i's metal rises along its axis where its torch climbs along that axis (its
+/// segment within 26° of it: the cosine over 0.9), None elsewhere. Its bead is then a column W
+/// wide every way across the axis, under the path point, fed the metal any bead of its width W
+/// and height H gets over its length L (W·H·L: the wire's, whatever the way it runs), so that
+/// it grows H·L/W and falls behind a torch that climbs faster, as a strut does whose torch
+/// outruns its wire. A bead laid across the axis grows H whatever its length.
+fn column_growth(deps: &[Deposit], i: usize) -> Option<f64> {
+    let d = &deps[i];
+    let seg = sub(d.position, segment_start(deps, i));
+    let len = norm(seg);
+    (len > 1e-12 && dot(seg, d.axis).abs() > 0.9 * len).then(|| d.height * len / d.width)
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -2125,11 +2250,192 @@ mod tests {
         (deps, settings)
     }
 
+    /// A strut of `width`: a torch climbing along its own vertical axis from 4 mm over the
+    /// plate's centre to 24 mm, 4 mm a deposit and each 4 mm high (the first at its foot, with
+    /// no segment of its own).
+    fn strut(width: f64) -> Vec<Deposit> {
+        (0..6usize)
+            .map(|k| Deposit {
+                position: [0.0, 0.0, 4e-3 * (k + 1) as f64],
+                time: (k + 1) as f64,
+                arc_time: 1.0,
+                heat: 500.0,
+                width,
+                height: 4e-3,
+                axis: [0.0, 0.0, 1.0],
+                support: k.checked_sub(1),
+                start: None,
+                drop: None,
+            })
+            .collect()
+    }
+
+    /// A torch climbing along its own axis lays a column as wide as its bead every way, from
+    /// its foot (a spot) up, with no cell missing, and its arc heats round that axis. Before, a
+    /// bead with no direction across it took a slab as wide as the cube it looked through (on
+    /// a strut 4 mm wide of 2 mm voxels, 270 cells where 48 are the column) and its arc spread
+    /// the heat along the slab.
+    #[test]
+    fn a_torch_climbing_along_its_axis_lays_a_column() {
+        let (_, settings) = three_revolutions(40.0);
+        let deps = strut(4e-3);
+        let mut m = VoxelModel::new(&deps, &settings).unwrap();
+        m.lay_all(&deps);
+        let metal: Vec<u32> = m.laid.iter().flatten().copied().collect();
+        for &v in &metal {
+            let c = m.centre_of(v);
+            assert!(c[0].abs() <= 2e-3 && c[1].abs() <= 2e-3, "a cell at {c:?}");
+        }
+        // Cells of 2 mm centred at ±1 mm: 2 × 2 in each of the 12 cells up to 24 mm.
+        assert_eq!(metal.len(), 48);
+        // Its foot fills down to the plate: 2 × 2 cells at 1 and 3 mm.
+        assert_eq!(m.laid[0].len(), 8, "the strut's foot");
+        for i in [0, 5] {
+            let mut w = Vec::new();
+            let burn = Burn {
+                heat: 500.0,
+                arc_time: 1.0,
+                drop: None,
+            };
+            m.source(&deps, i, burn, &mut w);
+            let total: f64 = w.iter().map(|x| x.1 as f64).sum();
+            let spread = w
+                .iter()
+                .map(|&(v, q)| {
+                    let c = m.centre_of(v);
+                    q as f64 * (c[0] * c[0] + c[1] * c[1])
+                })
+                .sum::<f64>()
+                / total;
+            // Goldak's a = W/2 and c_r = W: an RMS reach of about 2 mm here.
+            assert!(
+                spread.sqrt() < 3e-3,
+                "deposit {i}: RMS {} mm",
+                spread.sqrt() * 1e3
+            );
+        }
+    }
+
+    /// A strut whose torch climbs faster than its wire feeds it (beads 4 mm wide and 2 mm high,
+    /// 4 mm a deposit) grows by the wire's metal, W·H·L a deposit (H·L/W = 2 mm up), not by
+    /// the torch's climb: its column holds the wire's volume to the cell and lies under the
+    /// path points, its top falling behind them. Before, a deposit longer than H laid a
+    /// window H high at the segment's bottom end and the next one's segment no longer reached
+    /// it: on a logged strut climbing 2 m in 100 mm deposits, 62 cells of 2 mm voxels (a slab
+    /// at its foot) where the wire's metal fills 1 500.
+    /// The same where no support is known (a logged path's are looked for within a layer of
+    /// the path point, and the column lags further): each grows on the one before.
+    #[test]
+    fn a_strut_grows_by_the_wires_metal() {
+        for logged in [false, true] {
+            strut_of_the_wires_metal(logged);
+        }
+    }
+
+    fn strut_of_the_wires_metal(logged: bool) {
+        let (_, settings) = three_revolutions(40.0);
+        let deps: Vec<Deposit> = strut(4e-3)
+            .into_iter()
+            .map(|d| Deposit {
+                height: 2e-3,
+                support: d.support.filter(|_| !logged),
+                ..d
+            })
+            .collect();
+        let mut m = VoxelModel::new(&deps, &settings).unwrap();
+        m.lay_all(&deps);
+        let metal: Vec<u32> = m.laid.iter().flatten().copied().collect();
+        // The foot (a spot W × W × H) and five columns of W·H·L: 32 + 5 × 32 mm³.
+        let wire = 4e-3 * 2e-3 * (4e-3 + 5.0 * 4e-3);
+        assert_eq!(metal.len() as f64, (wire / 8e-9_f64).round());
+        for (i, laid) in m.laid.iter().enumerate() {
+            assert_eq!(laid.len(), 4, "deposit {i}");
+        }
+        let top = metal.iter().map(|&v| m.centre_of(v)[2]).fold(0.0, f64::max);
+        assert!(
+            (top - 11e-3).abs() < 1e-9,
+            "the column's top cell at {top} m"
+        );
+        for &v in &metal {
+            let c = m.centre_of(v);
+            assert!(c[0].abs() <= 2e-3 && c[1].abs() <= 2e-3, "a cell at {c:?}");
+        }
+    }
+
+    /// A path's first deposit (no segment of its own) lays the start of the bead the path goes
+    /// on with: W wide across the way it runs, half a voxel along it. Before, it took a frame
+    /// from the tool axis crossed with the vertical (none for a vertical torch, a tenth of a
+    /// unit for a dome's slightly tilted one) and laid a slab across the path some 7 mm either
+    /// side, and spread its arc along it.
+    #[test]
+    fn a_path_starts_its_bead_no_wider_than_the_bead() {
+        let (_, settings) = three_revolutions(60.0);
+        for axis in [[0.0, 0.0, 1.0], normalize([-0.036, -0.002, 1.0])] {
+            let deps: Vec<Deposit> = (0..6)
+                .map(|k| Deposit {
+                    position: [3e-3 * k as f64, 0.0, 1.5e-3],
+                    time: (k + 1) as f64,
+                    height: 1.5e-3,
+                    axis,
+                    support: None,
+                    ..strut(5e-3)[0]
+                })
+                .collect();
+            let mut m = VoxelModel::new(&deps, &settings).unwrap();
+            m.lay(&deps, 0);
+            assert!(!m.laid[0].is_empty());
+            for &v in &m.laid[0] {
+                let c = m.centre_of(v);
+                assert!(
+                    c[1].abs() <= 2.5e-3 && c[0].abs() <= 1.001e-3,
+                    "a cell at {c:?}"
+                );
+            }
+            let (travel, across) = arc_frame(&deps, 0);
+            assert!(dot(travel, [1.0, 0.0, 0.0]) > 0.999 && dot(across, [0.0, 1.0, 0.0]) > 0.999);
+        }
+    }
+
+    /// Goldak's frame is square to the torch (its travel across the axis, as the double
+    /// ellipsoid lies on the work), not sheared along a climb: on a climbing helix, its torch
+    /// upright and tilted 17°, and on a climb of 60°: the travel the bead's direction less its
+    /// part along the axis.
+    #[test]
+    fn the_arcs_frame_is_square_to_the_torch() {
+        let (helix_deps, _) = three_revolutions(100.0);
+        let steep: Vec<Deposit> = (0..4usize)
+            .map(|k| Deposit {
+                position: [2e-3 * k as f64, 0.0, 2e-3 + 3.46e-3 * k as f64],
+                time: (k + 1) as f64,
+                support: k.checked_sub(1),
+                ..strut(5e-3)[0]
+            })
+            .collect();
+        for tilt in [0.0, 0.3] {
+            for (deps, i) in [(&helix_deps, 70), (&helix_deps, 150), (&steep, 2)] {
+                let mut deps = deps.clone();
+                deps[i].axis = normalize([tilt, 0.0, 1.0]);
+                let (travel, across) = arc_frame(&deps, i);
+                let run = normalize(sub(deps[i].position, segment_start(&deps, i)));
+                assert!(dot(travel, deps[i].axis).abs() < 1e-12, "{i}: {travel:?}");
+                assert!(dot(across, travel).abs() < 1e-12 && dot(across, run).abs() < 1e-12);
+                assert!((norm(travel) - 1.0).abs() < 1e-12 && (norm(across) - 1.0).abs() < 1e-12);
+                let along = dot(run, deps[i].axis);
+                let way = (1.0 - along * along).sqrt();
+                assert!(
+                    (dot(travel, run) - way).abs() < 1e-12,
+                    "{i}: the travel's way"
+                );
+            }
+        }
+    }
+
     /// `lay` looks only at the cells its scan range holds, and lays what a scan of the whole
     /// cube round each deposit lays, cell for cell and in the same order: on the helix
     /// (deposits of 3 mm, 2 mm voxels), on a wall of long deposits (40 mm each, some with the
     /// tool tilted 27°, one climbing 4 mm, beads 12 mm wide and 1 mm, narrower than a voxel),
-    /// and on a wall whose tool axis lies nearly along the travel (where the cube stands).
+    /// on a wall whose tool axis lies nearly along the travel, and on a strut and a climb of
+    /// 80° (the bead's thickness bounding the range across the travel).
     #[test]
     fn the_scan_range_holds_every_cell_a_deposit_takes() {
         let (helix_deps, settings) = three_revolutions(100.0);
@@ -2165,7 +2471,16 @@ mod tests {
                 ..*d
             })
             .collect();
-        for deps in [&helix_deps, &wall, &leaning] {
+        let climb: Vec<Deposit> = (0..8usize)
+            .map(|k| Deposit {
+                // 80° up from the plate, 4 mm a deposit.
+                position: [-0.01 + 7e-4 * k as f64, 0.0, 2e-3 + 3.9e-3 * k as f64],
+                time: (k + 1) as f64,
+                support: k.checked_sub(1),
+                ..strut(5e-3)[0]
+            })
+            .collect();
+        for deps in [&helix_deps, &wall, &leaning, &strut(4e-3), &climb] {
             let laid = |cut: bool| {
                 let mut m = VoxelModel::new(deps, &settings).unwrap();
                 for i in 0..deps.len() {
