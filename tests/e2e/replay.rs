@@ -43,6 +43,8 @@ fn gamma_wall_against_its_ir_camera() {
         "replay.json",
     );
     assert_eq!(r["deposits"], 2640, "60 tracks of 44 mm in 1 mm deposits");
+    assert_eq!(r["model"], "voxel");
+    assert!(r["voxels"].as_u64().unwrap() > 2640 && r["wall_nodes"].is_null());
     let probes = r["probes"].as_array().unwrap();
     assert_eq!(probes.len(), 29);
     for p in probes {
@@ -346,6 +348,12 @@ fn gamma_wall_on_the_thin_wall() {
     let (_, out) = gamma_on_an_in718_box("thin-wall");
     let r: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+    // The model that ran (written as "voxel", with no voxels, before 2026-11-29).
+    assert_eq!(r["model"], "thin-wall");
+    assert!(
+        r["wall_nodes"].as_u64().unwrap() > 100 && r["voxels"].is_null(),
+        "{r}"
+    );
     // The camera's 80 K readings of half-filled pixels are dropped, not compared.
     assert_eq!(r["readings_below_ambient"], 154);
     assert!(r["samples"].as_u64().unwrap() > 170_000, "{r}");

@@ -115,17 +115,20 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let build_s = deps.last().map_or(0.0, |d| d.time);
     dir.write("passes.csv", passes_csv(&compared).as_bytes())?;
     dir.write("probes.csv", probes_csv(&compared).as_bytes())?;
-    let voxels = match result.cells {
-        thermal::Cells::Voxel { voxels, .. } => voxels,
-        _ => 0,
+    // The model that ran, and its cells: a thin-wall replay was written as "voxel" with no
+    // voxels.
+    let (model, voxels, wall_nodes) = match result.cells {
+        thermal::Cells::Voxel { voxels, .. } => ("voxel", Some(voxels), None),
+        thermal::Cells::ThinWall { wall_nodes, .. } => ("thin-wall", None, Some(wall_nodes)),
     };
     let overall = overall(&compared);
     dir.write_json(
         "replay.json",
         &json!({
-            "model": "voxel",
+            "model": model,
             "deposits": deps.len(),
             "voxels": voxels,
+            "wall_nodes": wall_nodes,
             "steps": result.steps,
             "build_s": build_s,
             "wall_s": wall_s,

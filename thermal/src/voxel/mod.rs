@@ -777,8 +777,10 @@ impl VoxelModel {
     /// voxel past either end along the segment (`prev` to the deposit, `len` long), half the
     /// width across it, and along the normal within the height window over the axis's angle
     /// to the tangent and within the bead's thickness; a voxel's margin takes rounding. Where
-    /// the deposit is no longer than a voxel the cube alone bounds what it takes. A deposit much longer than a voxel (`deposit_mm` 100 on 2 mm voxels)
-    /// scanned a cube as wide as it is long, the run spending 98.6 % of its time here.
+    /// the deposit is no longer than a voxel the cube alone bounds what it takes. A deposit
+    /// much longer than a voxel (`deposit_mm` 100 on 2 mm voxels) scanned a cube as wide as it
+    /// is long, the run spending 98.6 % of its time here. A column has its own range
+    /// ([`Self::column_range`]).
     fn scan_range(
         &self,
         d: &Deposit,
@@ -2323,6 +2325,7 @@ mod tests {
     /// window H high at the segment's bottom end and the next one's segment no longer reached
     /// it: on a logged strut climbing 2 m in 100 mm deposits, 62 cells of 2 mm voxels (a slab
     /// at its foot) where the wire's metal fills 1 500.
+    ///
     /// The same where no support is known (a logged path's are looked for within a layer of
     /// the path point, and the column lags further): each grows on the one before.
     #[test]
