@@ -2274,9 +2274,9 @@ mod tests {
 
     /// A torch climbing along its own axis lays a column as wide as its bead every way, from
     /// its foot (a spot) up, with no cell missing, and its arc heats round that axis. Before, a
-    /// bead with no direction across it took a slab as wide as the cube it looked through (on
-    /// a strut 4 mm wide of 2 mm voxels, 270 cells where 48 are the column) and its arc spread
-    /// the heat along the slab.
+    /// bead with no direction across it took a slab as wide as the cube it looked through (a
+    /// logged strut 30 mm up, 4 mm wide, in 1 mm deposits on 2 mm voxels: 270 cells where the
+    /// wire's metal fills 22.5) and its arc spread the heat along the slab.
     #[test]
     fn a_torch_climbing_along_its_axis_lays_a_column() {
         let (_, settings) = three_revolutions(40.0);
