@@ -105,8 +105,8 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     // lies on revolution 0, which lies on the plate, whose cells the models cut differently
     // (the thin wall's merged 5 mm cells, 2 mm voxels). Measured 7.4 % there (2026-11-29; the
     // thin wall 4.1 K warmer, 3.8 % on revolution 2, 2.4 % on 3); 4.9 % before, while the voxel
-    // model's first deposit laid a slab of several times the bead's metal that warmed the
-    // start of revolution 1 (its first point read 104 °C between neighbours at 49–58 °C).
+    // model's first deposit laid a slab of 20 cells (2 now; the next deposits 5–6) that warmed
+    // the start of revolution 1 (its first point read 104 °C between neighbours at 49–58 °C).
     let mut worst = 0.0f64;
     for k in 0..layers {
         let rel = (fe[k] - vx[k]) / (vx[k] - 293.15);
