@@ -149,6 +149,67 @@ fn a_bad_toolpath_line_is_named() {
     assert_input_error(&out, &["path.csv line 3", "x_mm = \"nan\""]);
 }
 
+/// A logged track whose points lie a bead's height over the plate lays the beads' metal
+/// (replay.json: `metal_mm3` within a third of `beads_mm3`, no warning); the same track with
+/// its z half a bead low (a logger's offset) lays none of it, and the replay says so on stderr
+/// with the two volumes and the keys to look at, instead of heating a part that is not there.
+#[test]
+fn a_track_laid_inside_the_plate_is_named() {
+    let dir = scratch("replay_inside_plate");
+    std::fs::create_dir_all(&dir).unwrap();
+    let track = |name: &str, z_mm: f64| {
+        let path = dir.join(format!("{name}.csv"));
+        std::fs::write(
+            &path,
+            format!("t_s,x_mm,y_mm,z_mm,on\n0,-20,0,{z_mm},0\n4,20,0,{z_mm},1\n"),
+        )
+        .unwrap();
+        let scenario = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &scenario,
+            format!(
+                "[toolpath]\nfile = \"{name}.csv\"\n[process]\npower_w = 1500.0\n\
+                 efficiency = 0.8\nbead_width_mm = 4.0\nlayer_height_mm = 2.0\n[material]\n\
+                 preset = \"G3Si\"\n[thermal]\nmodel = \"voxel\"\nplate_mm = [60.0, 20.0, 6.0]\n"
+            ),
+        )
+        .unwrap();
+        let out = dir.join(format!("{name}_out"));
+        let run = waamtwin(&[
+            "replay",
+            scenario.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+        let (laid, beads) = (
+            r["metal_mm3"].as_f64().unwrap(),
+            r["beads_mm3"].as_f64().unwrap(),
+        );
+        (
+            laid,
+            beads,
+            String::from_utf8_lossy(&run.stderr).into_owned(),
+        )
+    };
+    // 40 mm × 4 mm × 2 mm of bead.
+    let (laid, beads, err) = track("on_top", 2.0);
+    assert_eq!(beads, 320.0);
+    assert!((laid / beads - 1.0).abs() < 0.34, "{laid} of {beads} mm³");
+    assert!(!err.contains("warning: voxel model"), "{err}");
+    let (laid, beads, err) = track("inside", 1.0);
+    assert_eq!((laid, beads), (0.0, 320.0));
+    for needle in ["laid 0.0 mm³", "hold 320.0 mm³", "under half", "voxel_mm"] {
+        assert!(err.contains(needle), "{needle}: {err}");
+    }
+}
+
 /// The GAMMA wall calibrated on the first half of its build and judged on the second, as
 /// measured on 2026-11-28 (on the authors' carbon-steel plate, coarsened away from the wall):
 /// absorptivity 0.580, h 5.8 W/(m² K), emissivity 0.368; RMS 170 → 104 °C on the fit window,

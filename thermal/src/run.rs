@@ -191,6 +191,10 @@ pub enum Cells {
         voxels: usize,
         /// Voxel updates performed (steps × active voxels).
         updates: u64,
+        /// The cells the deposits switched on, in m³: the metal the grid laid, to hold against
+        /// the beads' ([`crate::schedule::bead_volume`]).
+        #[serde(default)]
+        metal_m3: f64,
     },
 }
 

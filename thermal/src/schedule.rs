@@ -182,6 +182,17 @@ pub fn just_laid(
         .collect()
 }
 
+/// The metal the path's beads hold, m³: each deposit's width × height × its segment (the
+/// wire's metal, what the voxel model lays: `Cells::Voxel::metal_m3`).
+pub fn bead_volume(deps: &[Deposit]) -> f64 {
+    (0..deps.len())
+        .map(|i| {
+            let d = &deps[i];
+            d.width * d.height * distance(d.position, segment_start(deps, i))
+        })
+        .sum()
+}
+
 /// Length of deposited path at each deposit, m.
 pub fn arc_lengths(deps: &[Deposit]) -> Vec<f64> {
     let mut s = vec![0.0; deps.len()];

@@ -82,7 +82,10 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     };
     let t = std::time::Instant::now();
     let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps).unwrap();
-    let Cells::Voxel { voxels, updates } = vox.cells else {
+    let Cells::Voxel {
+        voxels, updates, ..
+    } = vox.cells
+    else {
         panic!("a voxel run reports voxels")
     };
     let secs = t.elapsed().as_secs_f64();

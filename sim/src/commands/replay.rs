@@ -121,6 +121,10 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         thermal::Cells::Voxel { voxels, .. } => ("voxel", Some(voxels), None),
         thermal::Cells::ThinWall { wall_nodes, .. } => ("thin-wall", None, Some(wall_nodes)),
     };
+    let metal = crate::pipeline::resolution::metal(&result, &deps);
+    if let Some(m) = metal.and_then(crate::pipeline::resolution::Metal::off) {
+        eprintln!("{}", m.line());
+    }
     let overall = overall(&compared);
     dir.write_json(
         "replay.json",
@@ -129,6 +133,8 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
             "deposits": deps.len(),
             "voxels": voxels,
             "wall_nodes": wall_nodes,
+            "metal_mm3": metal.map(|m| m.mm3()[0]),
+            "beads_mm3": metal.map(|m| m.mm3()[1]),
             "steps": result.steps,
             "build_s": build_s,
             "wall_s": wall_s,

@@ -7,7 +7,7 @@ use crate::error::Result;
 use crate::output::RunDir;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::deposition::Cooling;
-use crate::pipeline::{Build, Simulation};
+use crate::pipeline::{Build, Simulation, resolution};
 use crate::progress::Stage;
 use crate::record::{Run, Scene};
 use crate::scenario::Scenario;
@@ -165,8 +165,14 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
             cg_iterations,
             node_steps,
         ),
-        Cells::Voxel { voxels, updates } => (None, None, Some(voxels), 0, updates),
+        Cells::Voxel {
+            voxels, updates, ..
+        } => (None, None, Some(voxels), 0, updates),
     };
+    let metal = resolution::metal(r, b.deposits());
+    if let Some(m) = metal.and_then(resolution::Metal::off) {
+        eprintln!("{}", m.line());
+    }
     let json = json!({
         "model": sim.model,
         "energy_in_j": r.ledger.energy_in(),
@@ -184,6 +190,9 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         "wall_nodes": wall_nodes,
         "plate_cells": plate_cells,
         "voxels": voxels,
+        // The metal the voxel grid laid and the beads' (null on the thin wall).
+        "metal_mm3": metal.map(|m| m.mm3()[0]),
+        "beads_mm3": metal.map(|m| m.mm3()[1]),
         "steps": r.steps,
         "cg_iterations": cg_iterations,
         // Node steps or voxel updates: the heat model's work, whatever its rates.

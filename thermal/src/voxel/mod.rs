@@ -2028,6 +2028,8 @@ impl HeatRun for VoxelRun {
             cells: Cells::Voxel {
                 voxels: m.h.len(),
                 updates: m.updates,
+                metal_m3: m.laid.iter().map(Vec::len).sum::<usize>() as f64
+                    * m.settings.size.powi(3),
             },
         }
     }
