@@ -8,20 +8,22 @@ use std::path::{Path, PathBuf};
 /// output folder and the JSON file it names.
 fn run_ok(command: &str, scenario: &str, name: &str, json: &str) -> (PathBuf, serde_json::Value) {
     let out = scratch(name);
-    let scenario = root().join("scenarios").join(scenario);
+    succeed(command, &root().join("scenarios").join(scenario), &out);
+    let v = serde_json::from_slice(&std::fs::read(out.join(json)).unwrap()).unwrap();
+    (out, v)
+}
+
+/// Run `waamtwin COMMAND SCENARIO -o OUT`, expect success, and return its stderr.
+fn succeed(command: &str, scenario: &Path, out: &Path) -> String {
     let run = waamtwin(&[
         command,
         scenario.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
     ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let v = serde_json::from_slice(&std::fs::read(out.join(json)).unwrap()).unwrap();
-    (out, v)
+    let err = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert!(run.status.success(), "{err}");
+    err
 }
 
 /// The GAMMA IN718 wall with the authors' parameters: every IR point compared where it reads,
@@ -175,28 +177,14 @@ fn a_track_laid_inside_the_plate_is_named() {
         )
         .unwrap();
         let out = dir.join(format!("{name}_out"));
-        let run = waamtwin(&[
-            "replay",
-            scenario.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-        ]);
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        let err = succeed("replay", &scenario, &out);
         let r: serde_json::Value =
             serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
         let (laid, beads) = (
             r["metal_mm3"].as_f64().unwrap(),
             r["beads_mm3"].as_f64().unwrap(),
         );
-        (
-            laid,
-            beads,
-            String::from_utf8_lossy(&run.stderr).into_owned(),
-        )
+        (laid, beads, err)
     };
     // 40 mm × 4 mm × 2 mm of bead.
     let (laid, beads, err) = track("on_top", 2.0);
@@ -381,17 +369,7 @@ fn gamma_on_an_in718_box(model: &str) -> (PathBuf, PathBuf) {
     let file = dir.join("gamma.toml");
     std::fs::write(&file, text).unwrap();
     let out = dir.join("out");
-    let run = waamtwin(&[
-        "replay",
-        file.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    succeed("replay", &file, &out);
     (file, out)
 }
 
