@@ -290,7 +290,6 @@ fn layers(deposits: &[Deposit]) -> f64 {
     f64::from(depth.iter().copied().max().unwrap_or(0))
 }
 
-/// Length of deposit i's bead segment, m.
 /// The explicit steps a voxel run of `deposits` takes at the stable step `dt`
 /// (`thermal::voxel::VoxelRun`): each arc and each gap between arcs stepped to its end, the
 /// last step of each the shorter, so an arc shorter than a step still takes one (a path cut
@@ -319,6 +318,7 @@ fn voxel_steps(deposits: &[Deposit], build_s: f64, dt: f64) -> f64 {
     counted + (build_s - last.time).max(0.0) / dt
 }
 
+/// Length of deposit i's bead segment, m.
 fn segment(deposits: &[Deposit], i: usize) -> f64 {
     let (d, start) = (&deposits[i], thermal::schedule::segment_start(deposits, i));
     (0..3)

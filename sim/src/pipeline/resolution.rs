@@ -5,7 +5,7 @@
 //! the length (docs/PHYSICS.md "Resolution along the bead"). Deposits longer than twice
 //! `node_mm` are reported, so that a preheat that is the grid's is not taken for the part's.
 //! On the voxel model, the metal its grid laid is held against the metal the beads hold
-//! ([`metal_laid`]): a path inside the plate, or beads thinner than half a voxel, lay none,
+//! ([`metal`]): a path inside the plate, or beads thinner than half a voxel, lay none,
 //! and the run heats a part that is not there.
 
 use thermal::run::{Cells, RunResult};
@@ -82,7 +82,7 @@ impl Metal {
         [self.laid_m3, self.beads_m3].map(|v| (v * 1e12).round() / 1e3)
     }
 
-    /// The same, where it is outside [`METAL_BOUNDS`] of the beads' (and they hold any).
+    /// The same, where it is under half or over twice the beads' (and they hold any).
     pub fn off(self) -> Option<Metal> {
         (self.beads_m3 > 0.0 && !(METAL_BOUNDS[0]..=METAL_BOUNDS[1]).contains(&self.ratio()))
             .then_some(self)
