@@ -152,7 +152,7 @@ fn a_bad_toolpath_line_is_named() {
 }
 
 /// A logged track whose points lie a bead's height over the plate lays the beads' metal
-/// (replay.json: `metal_mm3` within a third of `beads_mm3`, no warning); the same track with
+/// (replay.json: `metal_mm3` within 15 % of `beads_mm3`, 336 of 320 mm³ measured, no warning); the same track with
 /// its z half a bead low (a logger's offset) lays none of it, and the replay says so on stderr
 /// with the two volumes and the keys to look at, instead of heating a part that is not there.
 #[test]
@@ -189,7 +189,7 @@ fn a_track_laid_inside_the_plate_is_named() {
     // 40 mm × 4 mm × 2 mm of bead.
     let (laid, beads, err) = track("on_top", 2.0);
     assert_eq!(beads, 320.0);
-    assert!((laid / beads - 1.0).abs() < 0.34, "{laid} of {beads} mm³");
+    assert!((laid / beads - 1.0).abs() < 0.15, "{laid} of {beads} mm³");
     assert!(!err.contains("warning: voxel model"), "{err}");
     let (laid, beads, err) = track("inside", 1.0);
     assert_eq!((laid, beads), (0.0, 320.0));
