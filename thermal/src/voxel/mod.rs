@@ -1614,6 +1614,10 @@ pub struct VoxelRun {
     /// Per probe, its voxel once one lies within a cell of it.
     probe_voxels: Vec<Option<u32>>,
     underpowered: usize,
+    /// Heat the new metal has taken beyond what its deposits' arcs gave and the arcs since
+    /// have not yet made up, J: taken from the next arcs, so that the run takes in its arcs'
+    /// heat (η·P·t), not more.
+    deficit: f64,
     drops: Drops,
     now: f64,
     laid: usize,
@@ -1686,6 +1690,7 @@ impl VoxelRun {
                 .collect(),
             probe_voxels: vec![None; model.settings.probes.len()],
             underpowered: 0,
+            deficit: 0.0,
             drops: Drops::default(),
             laid: 0,
             next_probe: 0,
@@ -1899,9 +1904,15 @@ impl HeatRun for VoxelRun {
         }
         let before = self.model.ledger.deposited;
         self.model.lay(&self.deps, i);
-        // The arc's heat less what the new metal took.
+        // The arc's heat less what the new metal took, and less what earlier metal took beyond
+        // its own arcs: a deposit whose cells hold more than its bead (the grid lays a cell
+        // whole where a bead covers part of it) takes the rest from the arcs after it. Clamped
+        // at zero alone, the R 50 voxel dome at 2 mm (431 such deposits) took 1.9 % more heat
+        // than its arcs gave.
         let rest = burn.heat - (self.model.ledger.deposited - before);
         self.underpowered += usize::from(rest < 0.0);
+        let rest = rest - self.deficit;
+        self.deficit = (-rest).max(0.0);
         let mut source = std::mem::take(&mut self.source);
         let heat = Burn {
             heat: rest.max(0.0),
@@ -2325,6 +2336,35 @@ mod tests {
                 drop: None,
             })
             .collect()
+    }
+
+    /// A deposit whose new cells take more heat than its arc gives takes the rest from the
+    /// arcs after it: the run takes in its arcs' heat and what is still owed at its end, no
+    /// more (before, each such deposit's excess was added to the heat in).
+    #[test]
+    fn the_metal_takes_no_more_heat_than_the_arcs_give() {
+        // Its 6 mm beads on 2 mm voxels: 14 of its 180 deposits lay more cells than their
+        // arcs can heat.
+        let (deps, settings) = three_revolutions(60.0);
+        let mut run = VoxelRun::new(VoxelModel::new(&deps, &settings).unwrap(), &deps).unwrap();
+        crate::run::replay(&mut run, &deps).unwrap();
+        let (arcs, deficit) = (deps.iter().map(|d| d.heat).sum::<f64>(), run.deficit);
+        let r = run.finish();
+        let taken = r.ledger.source + r.ledger.deposited;
+        println!(
+            "{} underpowered, arcs {arcs} J, taken {taken} J, owed {deficit} J",
+            r.underpowered
+        );
+        assert!(
+            r.underpowered > 10 && deficit < 0.01 * arcs,
+            "{} {deficit}",
+            r.underpowered
+        );
+        assert!(
+            (taken - arcs - deficit).abs() < 1e-5 * arcs,
+            "{taken} J for {arcs} J"
+        );
+        assert!(r.balance_error.abs() < 1e-5, "{}", r.balance_error);
     }
 
     /// A straight track along x over the plate's centre, its deposits `spacing(k)` apart.
