@@ -114,8 +114,8 @@ fn closed_dome_preheat_rises_towards_the_closing_point() {
 
 /// `model = "voxel"` through the command: the same cylinder as the thin wall, 6 mm bead on
 /// 2 mm voxels, and the mean preheat of every revolution within 5 % of the rise (the thermal
-/// crate's own comparison asks 10 % of its first two), or 3 K where the rise is a few kelvin: the first revolution's
-/// (7–9 K) is read on the plate, whose cells the two models cut differently (their preheats
+/// crate's own comparison asks 10 % of its first two), or 3 K where the rise is a few kelvin:
+/// the first revolution's (7–9 K) is read on the plate, whose cells the two models cut differently (their preheats
 /// there differ by up to 8 K point by point). Its means agreed to 0.1 K while the voxel
 /// model's first deposit laid a slab 16 mm across the path and spread its arc along it, which
 /// warmed the revolution's end (2026-11-29: 29.06 → 26.73 °C, the thin wall 29.16 °C; the floor

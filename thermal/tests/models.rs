@@ -107,7 +107,8 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     // warmed by ~7 K): below what a pyrometer resolves. The first two within 10 %: revolution 1
     // lies on revolution 0, which lies on the plate, whose cells the models cut differently
     // (the thin wall's merged 5 mm cells, 2 mm voxels). Measured 7.4 % there (2026-11-29; the
-    // thin wall 4.1 K warmer, 3.8 % on revolution 2, 2.4 % on 3); 4.9 % before, while the voxel
+    // thin wall 4.2 K warmer, 3.9 % on revolution 2, 2.5 % on 3, since a voxel run takes in no
+    // more heat than its arcs: 4.1 K, 3.8 and 2.4 % before); 4.9 % before, while the voxel
     // model's first deposit laid a slab of 20 cells (2 now; the next deposits 5–6) that warmed
     // the start of revolution 1 (its first point read 104 °C between neighbours at 49–58 °C).
     let mut worst = 0.0f64;

@@ -2242,7 +2242,8 @@ fn column_growth(deps: &[Deposit], i: usize) -> Option<f64> {
 }
 
 /// Each deposit's distance along the path from the first, m: the sum of the straight
-/// segments between their points (the first at 0).
+/// segments between their points (the first at 0), a travel with the arc off included, as the
+/// pool's walk measures its steps (`schedule::arc_lengths` leaves travel out).
 fn path_lengths(deps: &[Deposit]) -> Vec<f64> {
     let mut along = 0.0;
     (0..deps.len())
@@ -2351,10 +2352,6 @@ mod tests {
         let (arcs, deficit) = (deps.iter().map(|d| d.heat).sum::<f64>(), run.deficit);
         let r = run.finish();
         let taken = r.ledger.source + r.ledger.deposited;
-        println!(
-            "{} underpowered, arcs {arcs} J, taken {taken} J, owed {deficit} J",
-            r.underpowered
-        );
         assert!(
             r.underpowered > 10 && deficit < 0.01 * arcs,
             "{} {deficit}",
