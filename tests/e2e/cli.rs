@@ -311,6 +311,7 @@ fn a_run_too_big_for_the_machine_is_refused_at_once() {
         err.contains("estimate: ") && err.contains("voxels") && err.contains("steps"),
         "{err}"
     );
+    assert!(!err.contains("beads' height"), "{err}");
     // With less memory than that run asks, the same scenario is refused before it starts.
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_waamtwin"))
         .args(["simulate", dir.join("s.toml").to_str().unwrap(), "-o"])
@@ -320,6 +321,37 @@ fn a_run_too_big_for_the_machine_is_refused_at_once() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("thermal.voxel_mm"));
+}
+
+/// A voxel edge twice the beads' height (4 mm on 1.96 mm beads) is named before the run, with
+/// its key and the edge that refines it, and the run goes on (docs/PHYSICS.md "The voxel grid
+/// against the layer"); the 2 mm edge above is not.
+#[test]
+fn a_voxel_edge_much_taller_than_the_beads_is_named() {
+    let dir = crate::scratch("coarse_voxels");
+    std::fs::write(
+        dir.join("s.toml"),
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 20.0\nedge_mm = 2.5\n[planner]\nn_points = 40\n\
+         [thermal]\nmodel = \"voxel\"\nvoxel_mm = 4.0\nplate_mm = [60.0, 60.0, 6.0]\n\
+         [output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
+    )
+    .unwrap();
+    let o = crate::waamtwin(&[
+        "simulate",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains(
+            "warning: voxel model: thermal.voxel_mm = 4 is 2.05 times the beads' height (1.96 mm"
+        ),
+        "{err}"
+    );
+    assert!(err.contains("An edge of 1.96 mm or less"), "{err}");
+    assert!(dir.join("out/thermal.json").exists());
 }
 
 /// A part too fine for the planner to hold is refused before it is meshed: the R 400 dome at

@@ -151,6 +151,11 @@ fn held(
     {
         eprintln!("{}", c.line());
     }
+    if t.model == ThermalModel::Voxel
+        && let Some(c) = crate::pipeline::resolution::coarse_voxels(deposits, t.voxel_m)
+    {
+        eprintln!("{}", c.line(key));
+    }
     if let Some(avail) = available_memory()
         && e.bytes > avail
     {
