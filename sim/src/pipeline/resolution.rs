@@ -2,13 +2,13 @@
 //! along the bead are the path's deposits (merged where shorter than `node_mm`, never split),
 //! and its preheat depends on their length: on the R 200 dome (measure.sh's) the lowest
 //! revolutions read 36–40 K above a path of 2.6 mm deposits with 10.5 mm ones, 4–9 K with 5.2 mm
-//! ones, the error falling as the square of
-//! the length (docs/PHYSICS.md "Resolution along the bead"). Deposits longer than twice
-//! `node_mm` are reported, so that a preheat that is the grid's is not taken for the part's.
-//! On the voxel model, the metal its grid laid is held against the metal the beads hold
-//! ([`metal`]): a path inside the plate, or beads thinner than half a voxel, lay none,
-//! and the run heats a part that is not there; and its edge is held against the beads' height
-//! ([`coarse_voxels`]): a cell much taller than a layer lays the layers in lumps.
+//! ones, the error falling as the square of the length (docs/PHYSICS.md "Resolution along the
+//! bead"). Deposits longer than twice `node_mm` are reported, so that a preheat that is the
+//! grid's is not taken for the part's. On the voxel model, the metal its grid laid is held
+//! against the metal the beads hold ([`metal`]): a path inside the plate, or beads thinner than
+//! half a voxel, lay none, and the run heats a part that is not there; and its edge is held
+//! against the beads' height ([`coarse_voxels`]): a cell much taller than a layer lays the
+//! layers in lumps.
 
 use thermal::run::{Cells, RunResult};
 use thermal::schedule::{Deposit, arc_lengths, bead_volume};
