@@ -292,19 +292,7 @@ fn a_run_too_big_for_the_machine_is_refused_at_once() {
     assert!(!dir.join("out").join("manifest.json").exists());
     // A small plate at 2 mm fits, and says what it will cost before it runs.
     let dir = crate::scratch("fits_estimate");
-    std::fs::write(
-        dir.join("s.toml"),
-        "[part]\nshape = \"hemisphere\"\nradius_mm = 20.0\nedge_mm = 2.5\n[planner]\nn_points = 40\n\
-         [thermal]\nmodel = \"voxel\"\nvoxel_mm = 2.0\nplate_mm = [60.0, 60.0, 6.0]\n\
-         [output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
-    )
-    .unwrap();
-    let o = crate::waamtwin(&[
-        "simulate",
-        dir.join("s.toml").to_str().unwrap(),
-        "-o",
-        dir.join("out").to_str().unwrap(),
-    ]);
+    let o = simulate_small_voxel_dome(&dir, 2.0);
     assert!(o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -329,19 +317,7 @@ fn a_run_too_big_for_the_machine_is_refused_at_once() {
 #[test]
 fn a_voxel_edge_much_taller_than_the_beads_is_named() {
     let dir = crate::scratch("coarse_voxels");
-    std::fs::write(
-        dir.join("s.toml"),
-        "[part]\nshape = \"hemisphere\"\nradius_mm = 20.0\nedge_mm = 2.5\n[planner]\nn_points = 40\n\
-         [thermal]\nmodel = \"voxel\"\nvoxel_mm = 4.0\nplate_mm = [60.0, 60.0, 6.0]\n\
-         [output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
-    )
-    .unwrap();
-    let o = crate::waamtwin(&[
-        "simulate",
-        dir.join("s.toml").to_str().unwrap(),
-        "-o",
-        dir.join("out").to_str().unwrap(),
-    ]);
+    let o = simulate_small_voxel_dome(&dir, 4.0);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(
@@ -352,6 +328,27 @@ fn a_voxel_edge_much_taller_than_the_beads_is_named() {
     );
     assert!(err.contains("An edge of 1.96 mm or less"), "{err}");
     assert!(dir.join("out/thermal.json").exists());
+}
+
+/// `simulate` of an R 20 dome on `voxel_mm` voxels and a 60 mm plate, outputs off, written as
+/// `dir`/s.toml, into `dir`/out.
+fn simulate_small_voxel_dome(dir: &std::path::Path, voxel_mm: f64) -> std::process::Output {
+    std::fs::write(
+        dir.join("s.toml"),
+        format!(
+            "[part]\nshape = \"hemisphere\"\nradius_mm = 20.0\nedge_mm = 2.5\n[planner]\n\
+             n_points = 40\n[thermal]\nmodel = \"voxel\"\nvoxel_mm = {voxel_mm}\n\
+             plate_mm = [60.0, 60.0, 6.0]\n[output]\nrerun = false\nmcap = false\nhdf5 = false\n\
+             plots = false\n"
+        ),
+    )
+    .unwrap();
+    crate::waamtwin(&[
+        "simulate",
+        dir.join("s.toml").to_str().unwrap(),
+        "-o",
+        dir.join("out").to_str().unwrap(),
+    ])
 }
 
 /// A part too fine for the planner to hold is refused before it is meshed: the R 400 dome at

@@ -573,12 +573,8 @@ mod tests {
         }
     }
 
-    /// The estimate's steps are the voxel run's: a helix whose arcs are longer than a step
-    /// (each stepped to its end, the last step shorter), the same with a dwell before each
-    /// revolution, and a path cut into arcs far shorter than a step (each still one). Before,
-    /// the build's seconds over the step: 651, 840 and 41 steps for the runs' 720, 910 and 300.
-    #[test]
-    fn the_voxel_steps_counted_are_the_runs() {
+    /// 2 mm voxels on an 80 × 80 × 6 mm plate, G3Si.
+    fn small_voxel_plate() -> (ThermalSettings, thermal::material::Material) {
         let t = ThermalSettings {
             model: ThermalModel::Voxel,
             voxel_m: 2e-3,
@@ -586,7 +582,16 @@ mod tests {
             plate_fit: false,
             ..ThermalSettings::default()
         };
-        let m = thermal::material::Material::g3si();
+        (t, thermal::material::Material::g3si())
+    }
+
+    /// The estimate's steps are the voxel run's: a helix whose arcs are longer than a step
+    /// (each stepped to its end, the last step shorter), the same with a dwell before each
+    /// revolution, and a path cut into arcs far shorter than a step (each still one). Before,
+    /// the build's seconds over the step: 651, 840 and 41 steps for the runs' 720, 910 and 300.
+    #[test]
+    fn the_voxel_steps_counted_are_the_runs() {
+        let (t, m) = small_voxel_plate();
         let helix = thermal::schedule::helix(0.02, 40, 2, 0.0015, 0.004, 0.01, 1500.0);
         let mut dwelled = helix.clone();
         for (i, d) in dwelled.iter_mut().enumerate() {
@@ -614,14 +619,7 @@ mod tests {
     /// 1.7 and 41 times the metal laid.
     #[test]
     fn the_metal_counted_is_the_metal_laid() {
-        let t = ThermalSettings {
-            model: ThermalModel::Voxel,
-            voxel_m: 2e-3,
-            plate_m: [0.08, 0.08, 0.006],
-            plate_fit: false,
-            ..ThermalSettings::default()
-        };
-        let m = thermal::material::Material::g3si();
+        let (t, m) = small_voxel_plate();
         let helix = thermal::schedule::helix(0.02, 40, 2, 0.002, 0.005, 0.01, 1500.0);
         let fine: Vec<Deposit> =
             thermal::schedule::helix(0.02, 2400, 1, 0.002, 0.005, 0.01, 1500.0)
