@@ -12,7 +12,7 @@
 //! continuously with the temperatures. A linear profile is measured exactly (unit test).
 
 /// One sample of the bead behind the torch: its temperature (K; `None` where the model has none
-/// of its own, counted molten with the samples around it), the length of bead it stands for
+/// of its own, a stretch between the samples around it), the length of bead it stands for
 /// (m) and its volume (m³).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Sample {
@@ -22,33 +22,45 @@ pub(crate) struct Sample {
 }
 
 /// The molten bead behind the torch: its length (m) and volume (m³), from `samples` taken from
-/// the torch backwards along the bead. Zero if the first is solid; the whole of the samples if
-/// none is (the bead's start bounds the pool).
+/// the torch backwards along the bead. Zero if the first sample with a temperature is solid;
+/// the whole of the samples if none is (the bead's start bounds the pool). A sample with no
+/// temperature of its own (a deposit of the voxel model that laid no cell: its stretch of bead
+/// lies between the centres of cells other deposits laid) is a stretch between the samples
+/// around it, the temperature linear across it as between any two centres: molten where it lies
+/// before the last molten sample, and cut where the solidus crosses it. Before, every such
+/// stretch ahead of the first solid sample was counted molten whole, which read the voxel
+/// model's pool longer the coarser its cells against its deposits (docs/PHYSICS.md "The voxel
+/// grid against the layer").
 pub(crate) fn behind(samples: impl IntoIterator<Item = Sample>, solidus: f64) -> (f64, f64) {
     let (mut length, mut volume) = (0.0, 0.0);
-    // The last molten sample with a temperature of its own.
-    let mut last: Option<Sample> = None;
+    // The last molten sample with a temperature of its own, and the stretch without one since.
+    let mut last: Option<(Sample, f64)> = None;
+    let (mut gap, mut gap_volume) = (0.0, 0.0);
     for s in samples {
         match s.t {
             Some(t) if t <= solidus => {
-                if let Some((l, tl)) = last.and_then(|l| Some((l, l.t?))) {
-                    // From the last molten centre to the crossing, in place of its back half.
+                if let Some((l, tl)) = last {
+                    // From the last molten centre to the crossing, across the stretch between
+                    // the two centres, in place of its back half.
                     let f = (tl - solidus) / (tl - t);
-                    length += f * 0.5 * (l.length + s.length) - 0.5 * l.length;
-                    volume += f * 0.5 * (l.volume + s.volume) - 0.5 * l.volume;
+                    length += f * (0.5 * (l.length + s.length) + gap) - 0.5 * l.length;
+                    volume += f * (0.5 * (l.volume + s.volume) + gap_volume) - 0.5 * l.volume;
                 }
                 return (length, volume);
             }
-            _ => {
-                length += s.length;
-                volume += s.volume;
-                if s.t.is_some() {
-                    last = Some(s);
-                }
+            Some(t) => {
+                length += gap + s.length;
+                volume += gap_volume + s.volume;
+                (gap, gap_volume) = (0.0, 0.0);
+                last = Some((s, t));
+            }
+            None => {
+                gap += s.length;
+                gap_volume += s.volume;
             }
         }
     }
-    (length, volume)
+    (length + gap, volume + gap_volume)
 }
 
 #[cfg(test)]
@@ -88,6 +100,30 @@ mod tests {
         }
     }
 
+    /// The same line sampled as the voxel model samples it where its cells are longer than the
+    /// deposits: a cell's temperature on one deposit, the two or three after it (nearer the
+    /// torch) with none of their own. The crossing is still found exactly; counting the
+    /// stretches without a temperature molten read these pools 0.8-1.1 mm long.
+    #[test]
+    fn stretches_without_a_temperature_lie_between_the_centres() {
+        let d = 0.001;
+        // Deposits of 1 mm from the torch back; every third has a temperature, at its centre.
+        for crossing in [0.0043, 0.0071, 0.0102, 0.0188] {
+            let g = 20_000.0;
+            let s: Vec<Sample> = (0..30)
+                .map(|k| Sample {
+                    t: (k % 3 == 2).then_some(SOLIDUS + g * (crossing - (k as f64 + 0.5) * d)),
+                    length: d,
+                    volume: 0.0,
+                })
+                .collect();
+            let (length, _) = behind(s, SOLIDUS);
+            // The first sample's stretch starts at the torch: the profile is linear between
+            // centres, so the pool ends at the crossing wherever it falls past the first centre.
+            assert!((length - crossing).abs() < 1e-12, "{crossing}: {length}");
+        }
+    }
+
     /// As the sample at the pool's tail warms through the solidus the pool grows without a jump:
     /// whole samples would move it by a whole node (10 mm) there.
     #[test]
@@ -109,8 +145,8 @@ mod tests {
         assert!((at(SOLIDUS + 0.5) - at(SOLIDUS - 0.5)).abs() < 0.2e-3);
     }
 
-    /// A solid first sample is no pool; no solid sample, the whole bead behind; samples with
-    /// no temperature of their own are counted molten.
+    /// A solid first sample is no pool; no solid sample, the whole bead behind; a sample with
+    /// no temperature of its own is a stretch between the samples around it.
     #[test]
     fn edges() {
         let l = 0.002;
@@ -120,11 +156,18 @@ mod tests {
         let mut s = samples(&[1900.0, 0.0, 1500.0], l);
         s[1].t = None;
         let (length, _) = behind(s, SOLIDUS);
-        // The tail interpolated from the last sample with a temperature (1900 K) to 1500 K.
+        // The tail interpolated from the last sample with a temperature (1900 K) to 1500 K,
+        // across the stretch without one: the centres 2l apart, the crossing at f of it.
         let f = (1900.0 - SOLIDUS) / (1900.0 - 1500.0);
-        assert!(
-            (length - (2.0 * l + f * l - 0.5 * l)).abs() < 1e-15,
-            "{length}"
-        );
+        assert!((length - (0.5 * l + f * 2.0 * l)).abs() < 1e-15, "{length}");
+        // With nothing molten ahead of it the stretch is no pool; with nothing solid behind it,
+        // the whole bead.
+        let mut s = samples(&[0.0, 1500.0], l);
+        s[0].t = None;
+        assert_eq!(behind(s, SOLIDUS), (0.0, 0.0));
+        let mut s = samples(&[1900.0, 0.0], l);
+        s[1].t = None;
+        let (length, _) = behind(s, SOLIDUS);
+        assert!((length - 2.0 * l).abs() < 1e-15, "{length}");
     }
 }

@@ -73,8 +73,8 @@ pub struct CoarseVoxels {
 /// cylinders, beads 2.5-8 mm wide and 1.86-2.0 mm high, each against its own grid of 0.5-1 mm,
 /// and the GAMMA wall's 0.75 mm layers against 0.5 mm): at edges of 1.5-2.5 bead heights the
 /// points' preheats a median 13-31 % of the rise from the fine grid's, the melt pool a median
-/// 64-150 % longer (the dome, the bottle, the cone), the first point at risk judged by its pool
-/// 79-99 % earlier along the path; at 1.35 bead heights or less 1.1-8.7 % (the GAMMA wall's 1 mm
+/// 55-86 % longer (the dome, the bottle, the cone), the first point at risk judged by its pool
+/// 62-99 % earlier along the path; at 1.35 bead heights or less 1.1-8.7 % (the GAMMA wall's 1 mm
 /// at 1.33 1.9 %; the default 2 mm on the dome's 1.86 mm beads 6.0 %). The threshold lies between
 /// the two, set after the GAMMA wall was measured; the cone was measured after it was set (6.1 %
 /// at 1.29, 13.6 % at 1.55). The beads' width mattered less: 1.25 cells across a 2.5 mm bead
@@ -89,8 +89,8 @@ impl CoarseVoxels {
             "warning: voxel model: {key} = {} is {:.2} times the beads' height ({:.2} mm, \
              the median): a cell much taller than a layer lays the layers in lumps. On the \
              parts of revolution measured such grids read the preheats 13-31 % of the rise \
-             from a fine grid's and the melt pool 64-150 % longer, and judged the first point \
-             at risk by its pool (humping, Bond) 79-99 % earlier along the path; temperatures \
+             from a fine grid's and the melt pool 55-86 % longer, and judged the first point \
+             at risk by its pool (humping, Bond) 62-99 % earlier along the path; temperatures \
              below the top layers less (the ORNL pad's thermocouples 4 % at 1.73 times). An \
              edge of {:.2} mm or less refines it (docs/PHYSICS.md \"The voxel grid against \
              the layer\")",
