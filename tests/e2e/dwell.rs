@@ -38,7 +38,7 @@ fn planned_dwells_keep_a_closed_dome_under_the_limit() {
     assert_eq!(d["unresolved_points"], 0);
     let t: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("thermal.json")).unwrap()).unwrap();
-    assert!(t["first_overheat"].is_null());
+    assert!(t["first_overheat"].is_null() && t["first_overheat_reason"].is_null());
     let (lh, lrows) = csv(&out.join("layers.csv"));
     let risk = lh.iter().position(|h| h == "risk").unwrap();
     assert!(

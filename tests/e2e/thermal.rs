@@ -110,6 +110,12 @@ fn closed_dome_preheat_rises_towards_the_closing_point() {
         t["first_overheat"].is_u64(),
         "the run must say the limit is exceeded"
     );
+    // And which: one of the criteria, as layers.csv's risk column names them.
+    let reason = t["first_overheat_reason"].as_str().unwrap();
+    assert!(
+        ["interpass", "strength", "humping", "bond"].contains(&reason),
+        "{reason}"
+    );
 }
 
 /// `model = "voxel"` through the command: the same cylinder as the thin wall, 6 mm bead on

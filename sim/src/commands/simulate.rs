@@ -122,9 +122,9 @@ pub fn summary(b: &Build, sim: &Simulation) -> String {
         sim.build_time_s(),
         celsius(sim.max_preheat_k()),
         match sim.first_risk(&b.criteria) {
-            Some((i, _)) => format!(
-                " (over {:.0} °C from point {i})",
-                celsius(b.params.dwell.interpass_max_k)
+            Some((i, risk)) => format!(
+                " (at risk from point {i}: {})",
+                b.criteria.breach(&sim.result.points[i], risk)
             ),
             None => String::new(),
         },
@@ -182,6 +182,8 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         "max_preheat_c": celsius(sim.max_preheat_k()),
         "interpass_max_c": celsius(params.dwell.interpass_max_k),
         "first_overheat": sim.first_risk(&b.criteria).map(|(i, _)| i),
+        // What that point breaks: interpass, strength, humping or bond.
+        "first_overheat_reason": sim.first_risk(&b.criteria).map(|(_, r)| r.as_str()),
         "risky_revolutions": risky.iter().map(|&(layer, _)| layer).collect::<Vec<_>>(),
         "risk_in_closing_zone": risky.iter().any(|&(_, zone)| zone),
         "closing_zone_mm": pl.closing_point.map(|_| params.dwell.closing_zone_mm),

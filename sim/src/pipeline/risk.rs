@@ -85,6 +85,44 @@ impl Risk {
     }
 }
 
+impl Criteria {
+    /// What point `p` breaks of `risk`, in the interface's units: the value against its limit
+    /// (`preheat 214.3 °C over the 200 °C interpass limit`, `melt pool 16.9 mm over the 15.7 mm
+    /// humping limit`). The outputs named every first point at risk an interpass overheat, a
+    /// pool too long read "preheat 144 °C over the 200 °C limit".
+    pub fn breach(&self, p: &PointResult, risk: Risk) -> String {
+        const C: f64 = 273.15;
+        let limit_k = |l: Option<f64>| l.map_or(f64::NAN, |l| l - C);
+        match risk {
+            Risk::Interpass => format!(
+                "preheat {:.1} °C over the {:.0} °C interpass limit",
+                p.preheat - C,
+                limit_k(self.interpass_max_k)
+            ),
+            Risk::Strength => format!(
+                "preheat {:.1} °C over the {:.0} °C strength-loss limit",
+                p.preheat - C,
+                limit_k(self.strength_loss_k)
+            ),
+            Risk::Humping => format!(
+                "melt pool {:.1} mm over the {:.1} mm humping limit",
+                p.pool_length * 1e3,
+                self.humping_pool_m.map_or(f64::NAN, |l| l * 1e3)
+            ),
+            Risk::Bond => {
+                let (bo, max) = self.bond.map_or((f64::NAN, f64::NAN), |b| {
+                    let bo = bond_number(b.density_kg_m3, p.pool_radius, b.surface_tension_n_m);
+                    (bo, b.max)
+                });
+                format!(
+                    "Bond number {bo:.2} of a pool {:.1} mm in radius over the limit {max:.2}",
+                    p.pool_radius * 1e3
+                )
+            }
+        }
+    }
+}
+
 /// The preheat under which point `p` no longer breaks `risk`, K: what a dwell that cools the
 /// metal beneath it must reach. The temperature limits are their own answer (less `margin_k`).
 /// A pool too long (humping) or too heavy (Bond) shrinks as the preheat falls: in Rosenthal's
@@ -202,6 +240,46 @@ mod tests {
     use super::*;
     use crate::scenario::Scenario;
     use thermal::HeatRun;
+
+    /// Each first point at risk is named by what it breaks, against that criterion's own limit.
+    #[test]
+    fn a_breach_names_its_criterion_and_limit() {
+        let c = Criteria {
+            interpass_max_k: Some(473.15),
+            strength_loss_k: Some(823.15),
+            humping_pool_m: Some(std::f64::consts::PI * 5e-3),
+            bond: Some(BondLimit {
+                max: 0.8,
+                density_kg_m3: 7800.0,
+                surface_tension_n_m: 1.2,
+            }),
+            melting_k: 1700.0,
+        };
+        let p = PointResult {
+            preheat: 417.3,
+            peak: 2000.0,
+            pool_length: 16.9e-3,
+            pool_radius: 4.0e-3,
+            time_above: 1.0,
+        };
+        assert_eq!(
+            c.breach(&p, Risk::Humping),
+            "melt pool 16.9 mm over the 15.7 mm humping limit"
+        );
+        assert_eq!(
+            c.breach(&p, Risk::Interpass),
+            "preheat 144.2 °C over the 200 °C interpass limit"
+        );
+        assert_eq!(
+            c.breach(&p, Risk::Strength),
+            "preheat 144.2 °C over the 550 °C strength-loss limit"
+        );
+        // ρ g R² / σ = 7800 × 9.81 × 16e-6 / 1.2 = 1.02.
+        assert_eq!(
+            c.breach(&p, Risk::Bond),
+            "Bond number 1.02 of a pool 4.0 mm in radius over the limit 0.80"
+        );
+    }
 
     /// A leaning dome on an elliptic base (`scenarios/leaning_elliptic_dome.toml`, 70 × 45 mm,
     /// 110 mm tall, lean 30 mm): revolutions unequal in length around the part and in height from

@@ -336,16 +336,15 @@ fn events(b: &Build, points: &[PointRecord], before: Option<&Simulation>) -> Vec
     let pl: &Plan = &b.plan;
     let mut ev = Vec::new();
     if let Some(before) = before
-        && let Some((i, _)) = before.first_risk(&b.criteria)
+        && let Some((i, risk)) = before.first_risk(&b.criteria)
     {
         ev.push(Event {
             t_s: 0.0,
             level: Level::Warning,
             text: format!(
-                "without dwells: overheating from point {i} (layer {}), preheat {:.0} °C over the {:.0} °C limit",
+                "without dwells: at risk from point {i} (layer {}), {}",
                 pl.points[i].layer,
-                before.result.points[i].preheat - C,
-                b.params.dwell.interpass_max_k - C
+                b.criteria.breach(&before.result.points[i], risk)
             ),
         });
     }
