@@ -66,6 +66,22 @@ fn a_killed_study_resumes_and_shards_merge_into_the_same_summary() {
     assert_eq!(finished(&out), 12);
     let local = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     assert_eq!(local.lines().count(), 13, "{local}");
+    let header: Vec<&str> = local.lines().next().unwrap().split(',').collect();
+    assert_eq!(
+        header[header.len() - 2..],
+        ["first_risk", "first_risk_reason"]
+    );
+    // Each row names what its first point at risk breaks, where it has one.
+    for row in local.lines().skip(1) {
+        let f: Vec<&str> = row.split(',').collect();
+        assert_eq!(f.len(), header.len(), "{row}");
+        let (point, reason) = (f[f.len() - 2], f[f.len() - 1]);
+        assert_eq!(point.is_empty(), reason.is_empty(), "{row}");
+        assert!(
+            ["", "interpass", "strength", "humping", "bond"].contains(&reason),
+            "{row}"
+        );
+    }
     // The trade-off: at each travel speed and convection, a higher interpass limit needs less dwell.
     let rows: Vec<Vec<String>> = local
         .lines()

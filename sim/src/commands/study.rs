@@ -339,7 +339,8 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
         k
     };
     let mut csv = format!(
-        "case,{},feasible,max_preheat_c,total_dwell_s,dwell_count,build_time_s,first_risk\n",
+        "case,{},feasible,max_preheat_c,total_dwell_s,dwell_count,build_time_s,first_risk,\
+         first_risk_reason\n",
         keys.join(",")
     );
     let read =
@@ -371,7 +372,7 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
             .collect();
         let _ = writeln!(
             csv,
-            "{},{},{},{:.2},{:.2},{},{:.2},{}",
+            "{},{},{},{:.2},{:.2},{},{:.2},{},{}",
             c.id,
             values.join(","),
             plan["feasible"],
@@ -381,7 +382,8 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
             thermal["build_time_s"].as_f64().unwrap_or(f64::NAN),
             thermal["first_overheat"]
                 .as_u64()
-                .map_or(String::new(), |v| v.to_string())
+                .map_or(String::new(), |v| v.to_string()),
+            thermal["first_overheat_reason"].as_str().unwrap_or("")
         );
         rows += 1;
         #[cfg(feature = "recording")]
