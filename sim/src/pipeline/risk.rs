@@ -262,23 +262,27 @@ mod tests {
             pool_radius: 4.0e-3,
             time_above: 1.0,
         };
-        assert_eq!(
-            c.breach(&p, Risk::Humping),
-            "melt pool 16.9 mm over the 15.7 mm humping limit"
-        );
-        assert_eq!(
-            c.breach(&p, Risk::Interpass),
-            "preheat 144.2 °C over the 200 °C interpass limit"
-        );
-        assert_eq!(
-            c.breach(&p, Risk::Strength),
-            "preheat 144.2 °C over the 550 °C strength-loss limit"
-        );
-        // ρ g R² / σ = 7800 × 9.81 × 16e-6 / 1.2 = 1.02.
-        assert_eq!(
-            c.breach(&p, Risk::Bond),
-            "Bond number 1.02 of a pool 4.0 mm in radius over the limit 0.80"
-        );
+        // Bond: ρ g R² / σ = 7800 × 9.81 × 16e-6 / 1.2 = 1.02.
+        for (risk, said) in [
+            (
+                Risk::Humping,
+                "melt pool 16.9 mm over the 15.7 mm humping limit",
+            ),
+            (
+                Risk::Interpass,
+                "preheat 144.2 °C over the 200 °C interpass limit",
+            ),
+            (
+                Risk::Strength,
+                "preheat 144.2 °C over the 550 °C strength-loss limit",
+            ),
+            (
+                Risk::Bond,
+                "Bond number 1.02 of a pool 4.0 mm in radius over the limit 0.80",
+            ),
+        ] {
+            assert_eq!(c.breach(&p, risk), said);
+        }
     }
 
     /// A leaning dome on an elliptic base (`scenarios/leaning_elliptic_dome.toml`, 70 × 45 mm,
