@@ -20,7 +20,7 @@
 use super::params::Params;
 use bead_model::bond::bond_number;
 use planner::plan::Plan;
-use thermal::{PointResult, Support};
+use thermal::{PointResult, Support, celsius};
 
 /// The criteria in force, each `None` when switched off. SI, temperatures in K.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -91,18 +91,17 @@ impl Criteria {
     /// humping limit`). The outputs named every first point at risk an interpass overheat, a
     /// pool too long read "preheat 144 °C over the 200 °C limit".
     pub fn breach(&self, p: &PointResult, risk: Risk) -> String {
-        const C: f64 = 273.15;
-        let limit_k = |l: Option<f64>| l.map_or(f64::NAN, |l| l - C);
+        let limit_c = |l: Option<f64>| l.map_or(f64::NAN, celsius);
         match risk {
             Risk::Interpass => format!(
                 "preheat {:.1} °C over the {:.0} °C interpass limit",
-                p.preheat - C,
-                limit_k(self.interpass_max_k)
+                celsius(p.preheat),
+                limit_c(self.interpass_max_k)
             ),
             Risk::Strength => format!(
                 "preheat {:.1} °C over the {:.0} °C strength-loss limit",
-                p.preheat - C,
-                limit_k(self.strength_loss_k)
+                celsius(p.preheat),
+                limit_c(self.strength_loss_k)
             ),
             Risk::Humping => format!(
                 "melt pool {:.1} mm over the {:.1} mm humping limit",
