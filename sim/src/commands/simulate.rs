@@ -170,6 +170,7 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         } => (None, None, Some(voxels), 0, updates),
     };
     let metal = resolution::metal(r, b.deposits());
+    let first = sim.first_risk(&b.criteria);
     if let Some(m) = metal.and_then(resolution::Metal::off) {
         eprintln!("{}", m.line());
     }
@@ -181,9 +182,9 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         "energy_lost_j": {"convection": r.ledger.convection, "radiation": r.ledger.radiation, "table": r.ledger.table},
         "max_preheat_c": celsius(sim.max_preheat_k()),
         "interpass_max_c": celsius(params.dwell.interpass_max_k),
-        "first_overheat": sim.first_risk(&b.criteria).map(|(i, _)| i),
+        "first_overheat": first.map(|(i, _)| i),
         // What that point breaks: interpass, strength, humping or bond.
-        "first_overheat_reason": sim.first_risk(&b.criteria).map(|(_, r)| r.as_str()),
+        "first_overheat_reason": first.map(|(_, r)| r.as_str()),
         "risky_revolutions": risky.iter().map(|&(layer, _)| layer).collect::<Vec<_>>(),
         "risk_in_closing_zone": risky.iter().any(|&(_, zone)| zone),
         "closing_zone_mm": pl.closing_point.map(|_| params.dwell.closing_zone_mm),
