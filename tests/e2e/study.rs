@@ -68,14 +68,16 @@ fn a_killed_study_resumes_and_shards_merge_into_the_same_summary() {
     assert_eq!(local.lines().count(), 13, "{local}");
     let header: Vec<&str> = local.lines().next().unwrap().split(',').collect();
     assert_eq!(
-        header[header.len() - 2..],
-        ["first_risk", "first_risk_reason"]
+        header[header.len() - 3..],
+        ["first_risk", "first_risk_reason", "warnings"]
     );
-    // Each row names what its first point at risk breaks, where it has one.
+    // Each row names what its first point at risk breaks, where it has one; the thin wall's
+    // cases here earn no warning.
     for row in local.lines().skip(1) {
         let f: Vec<&str> = row.split(',').collect();
         assert_eq!(f.len(), header.len(), "{row}");
-        let (point, reason) = (f[f.len() - 2], f[f.len() - 1]);
+        let (point, reason) = (f[f.len() - 3], f[f.len() - 2]);
+        assert_eq!(f[f.len() - 1], "", "{row}");
         assert_eq!(point.is_empty(), reason.is_empty(), "{row}");
         assert!(
             ["", "interpass", "strength", "humping", "bond"].contains(&reason),
@@ -304,4 +306,67 @@ fn a_sweep_of_too_many_cases_is_refused_at_once() {
         ],
     );
     assert!(clock.elapsed().as_secs_f64() < 5.0);
+}
+
+/// A study's cases carry the warnings their commands would show: of two voxel cases on an R 20
+/// dome's 1.96 mm beads, the 4 mm grid is named `coarse_voxels` in summary.csv, in its
+/// thermal.json and on stderr with its case's number, the 2 mm grid is not. A case whose plate
+/// cannot fit is refused before any case runs, naming the study file, the case and the key.
+#[test]
+fn a_studys_cases_carry_their_warnings_and_one_too_big_is_refused() {
+    let dir = scratch("study_warnings");
+    std::fs::write(
+        dir.join("base.toml"),
+        "[part]\nshape = \"hemisphere\"\nradius_mm = 20.0\nedge_mm = 2.5\n[planner]\n\
+         n_points = 40\n[thermal]\nmodel = \"voxel\"\nplate_mm = [60.0, 60.0, 6.0]\n\
+         [output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n",
+    )
+    .unwrap();
+    let study = dir.join("grid.toml");
+    std::fs::write(
+        &study,
+        "base = \"base.toml\"\n[sweep]\n\"thermal.voxel_mm\" = [2.0, 4.0]\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = study_cmd(&[study.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("case 001: warning: voxel model: thermal.voxel_mm = 4 is 2.05 times"),
+        "{err}"
+    );
+    assert!(!err.contains("case 000:"), "{err}");
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let last: Vec<&str> = summary
+        .lines()
+        .map(|l| l.rsplit(',').next().unwrap())
+        .collect();
+    assert_eq!(last, ["warnings", "", "coarse_voxels"], "{summary}");
+    let thermal: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(out.join("cases").join("001").join("thermal.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(thermal["warnings"][0]["kind"], "coarse_voxels", "{thermal}");
+
+    // 0.3 mm voxels through a 300 mm plate: 3.3e7 of them, some 4.6 GB, in 200 MB.
+    let big = dir.join("big.toml");
+    std::fs::write(
+        &big,
+        "base = \"base.toml\"\n[[case]]\n\"thermal.voxel_mm\" = 2.0\n[[case]]\n\
+         \"thermal.voxel_mm\" = 0.3\n\"thermal.plate_mm\" = [300.0, 300.0, 10.0]\n",
+    )
+    .unwrap();
+    let refused = dir.join("refused");
+    let o = study_cmd(&[big.to_str().unwrap(), "-o", refused.to_str().unwrap()])
+        .env("WAAMTWIN_MEMORY_BYTES", "2e8")
+        .output()
+        .unwrap();
+    crate::assert_input_error(
+        &o,
+        &["big.toml case 001", "thermal.voxel_mm = 0.3", "voxels"],
+    );
+    assert!(!refused.join("cases").join("000").exists());
 }

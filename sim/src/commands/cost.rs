@@ -127,6 +127,44 @@ fn held(
     keeps: Keeps,
     key: &str,
 ) -> Result<Estimate> {
+    let e = weigh((t, m), deposits, build_s, keeps);
+    eprintln!("{}", e.line());
+    for w in crate::pipeline::resolution::before_run(t, deposits, key) {
+        eprintln!("{}", w.line);
+    }
+    fits(file, t, &e, key)?;
+    Ok(e)
+}
+
+/// A study's case (the scenario `s` planned as `b`, keeping what its command keeps), refused
+/// where it cannot fit in the memory available now, as its command alone would be; its estimate
+/// is not shown (a study's cases would bury the terminal in them) and its warnings are
+/// returned for the case to show and keep. `file` names the case.
+pub fn check_case(
+    file: &str,
+    s: &crate::scenario::Scenario,
+    b: &crate::pipeline::Build,
+    keeps: Keeps,
+) -> Result<Vec<crate::pipeline::resolution::Warning>> {
+    let t = &b.params.thermal;
+    let deposits = b.deposits();
+    let end = deposits.last().map_or(0.0, |d| d.time);
+    let e = weigh((t, &material(&s.material, t)), deposits, end, keeps);
+    fits(file, t, &e, "thermal.voxel_mm")?;
+    Ok(crate::pipeline::resolution::before_run(
+        t,
+        deposits,
+        "thermal.voxel_mm",
+    ))
+}
+
+/// The estimate of what a command keeps (`held`'s arithmetic, printed by none).
+fn weigh(
+    (t, m): (&ThermalSettings, &thermal::material::Material),
+    deposits: &[Deposit],
+    build_s: f64,
+    keeps: Keeps,
+) -> Estimate {
     let mut e = estimate(
         t,
         m,
@@ -145,23 +183,15 @@ fn held(
     }
     e.bytes += crate::pipeline::cost::READING_BYTES * keeps.readings as f64
         + REPLAY_DEPOSIT_BYTES * keeps.deposits as f64;
-    eprintln!("{}", e.line());
-    if t.model == ThermalModel::ThinWall
-        && let Some(c) = crate::pipeline::resolution::coarse_deposits(deposits, t.node_m)
-    {
-        eprintln!("{}", c.line());
+    e
+}
+
+/// Refuse `e` where it cannot fit in the memory available now.
+fn fits(file: &str, t: &ThermalSettings, e: &Estimate, key: &str) -> Result<()> {
+    match available_memory() {
+        Some(avail) if e.bytes > avail => Err(refusal(file, t, e, avail, key)),
+        _ => Ok(()),
     }
-    if t.model == ThermalModel::Voxel
-        && let Some(c) = crate::pipeline::resolution::coarse_voxels(deposits, t.voxel_m)
-    {
-        eprintln!("{}", c.line(key));
-    }
-    if let Some(avail) = available_memory()
-        && e.bytes > avail
-    {
-        return Err(refusal(file, t, &e, avail, key));
-    }
-    Ok(e)
 }
 
 /// A logged path's deposits, counted before they are made (`deposits` of them, the longest

@@ -160,7 +160,7 @@ const BESIDE_SHARE: f64 = 0.85;
 /// tries go on from, those between a failing and a passing try, not counted here; the peak
 /// measured no higher for them at R 400, 1.46 GB, and 6 % higher at R 100). Its runs are
 /// [`Builds`]; the baselines (`--no-baselines` leaves them out) are not counted.
-fn keeps(s: &Scenario) -> super::cost::Keeps {
+pub(crate) fn keeps(s: &Scenario) -> super::cost::Keeps {
     let b = match s.thermal.model {
         ThermalModel::ThinWall => THIN_WALL,
         ThermalModel::Voxel => VOXEL,
@@ -412,7 +412,9 @@ fn write(
         summary["ratio_to_wait_until_cool"] = json!(total / wait_total.max(1e-9));
     }
     super::plan::write_plan(dir, s, b)?;
-    write_thermal(dir, b, after)?;
+    for w in write_thermal(dir, b, after)? {
+        eprintln!("{}", w.line);
+    }
     let dwelled = super::simulate::Dwelled {
         before,
         arc_stops_lower_bound: bound.stops,

@@ -51,7 +51,9 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let mut ck = Checkpoints::to(&mut folder);
     let sim = heat(&b, &cooling, s.output.frames, &mut ck, "heat")?;
     super::plan::write_plan(&mut dir, &s, &b)?;
-    write_thermal(&mut dir, &b, &sim)?;
+    for w in write_thermal(&mut dir, &b, &sim)? {
+        eprintln!("{}", w.line);
+    }
     record(&mut dir, &s, &part, &b, &sim, None)?;
     dir.finish("replay", s.to_json())?;
     folder.close()?;

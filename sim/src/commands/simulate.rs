@@ -41,7 +41,9 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let mut ck = Checkpoints::to(&mut folder);
     let sim = heat(&b, &Cooling::default(), s.output.frames, &mut ck, "heat")?;
     super::plan::write_plan(&mut dir, &s, &b)?;
-    write_thermal(&mut dir, &b, &sim)?;
+    for w in write_thermal(&mut dir, &b, &sim)? {
+        eprintln!("{}", w.line);
+    }
     record(&mut dir, &s, &part, &b, &sim, None)?;
     dir.finish("simulate", s.to_json())?;
     folder.close()?;
@@ -134,7 +136,14 @@ pub fn summary(b: &Build, sim: &Simulation) -> String {
 }
 
 /// thermal.json, layers.csv, and path.csv again with times, dwells and per-point results.
-pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()> {
+/// thermal.json's `warnings` are those the run earned before it started (shown with its
+/// estimate) and after (the voxel grid's metal against the beads'); the latter are returned, for
+/// the command to show.
+pub fn write_thermal(
+    dir: &mut RunDir,
+    b: &Build,
+    sim: &Simulation,
+) -> Result<Vec<resolution::Warning>> {
     let (pl, params) = (&b.plan, &b.params);
     let built = b.as_built(sim);
     let (err_lo, err_hi) = planner::plan::range(built.iter().map(|b| b.height_error * 1e3));
@@ -171,9 +180,16 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
     };
     let metal = resolution::metal(r, b.deposits());
     let first = sim.first_risk(&b.criteria);
-    if let Some(m) = metal.and_then(resolution::Metal::off) {
-        eprintln!("{}", m.line());
-    }
+    let after: Vec<resolution::Warning> = metal
+        .and_then(resolution::Metal::warning)
+        .into_iter()
+        .collect();
+    let warnings: Vec<serde_json::Value> =
+        resolution::before_run(&params.thermal, b.deposits(), "thermal.voxel_mm")
+            .iter()
+            .chain(&after)
+            .map(|w| json!({"kind": w.kind, "message": w.line}))
+            .collect();
     let json = json!({
         "model": sim.model,
         "energy_in_j": r.ledger.energy_in(),
@@ -196,6 +212,9 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         // The metal the voxel grid laid and the beads' (null on the thin wall).
         "metal_mm3": metal.map(|m| m.mm3()[0]),
         "beads_mm3": metal.map(|m| m.mm3()[1]),
+        // What the grid or the path made doubtful (`pipeline::resolution`), each a kind and
+        // the line the command showed.
+        "warnings": warnings,
         "steps": r.steps,
         "cg_iterations": cg_iterations,
         // Node steps or voxel updates: the heat model's work, whatever its rates.
@@ -270,5 +289,5 @@ pub fn write_thermal(dir: &mut RunDir, b: &Build, sim: &Simulation) -> Result<()
         );
     }
     dir.write("path.csv", path.as_bytes())?;
-    Ok(())
+    Ok(after)
 }

@@ -207,6 +207,21 @@ impl Study {
     }
 }
 
+impl Study {
+    /// A case as messages name it: the study file and the case's number.
+    fn case_name(&self, c: &Case) -> String {
+        format!("{} case {}", self.file, c.id)
+    }
+}
+
+/// What a case keeps: its command's (`simulate`'s one run, or `dwell`'s search).
+fn case_keeps(command: &str, s: &Scenario) -> super::cost::Keeps {
+    match command {
+        "dwell" => super::dwell::keeps(s),
+        _ => super::simulate::one_run(s),
+    }
+}
+
 /// Parse `I/N`.
 pub fn parse_shard(s: &str) -> Result<(usize, usize)> {
     let bad = || Error::input(format!("--shard {s}; expected I/N with 0 ≤ I < N"));
@@ -253,6 +268,17 @@ pub fn run(
     };
     let pending: Vec<&&Case> = mine.iter().filter(|c| !done(c)).collect();
     let skipped = mine.len() - pending.len();
+    // A case whose plate alone cannot fit is refused before any case runs; the rest of each
+    // case's estimate needs its plan, and is checked as the case starts (`run_case`).
+    for c in &pending {
+        let s = study.scenario(c)?;
+        super::cost::check_plate(
+            &study.case_name(c),
+            &s.thermal,
+            &s.material,
+            case_keeps(&study.command, &s),
+        )?;
+    }
     let jobs = match jobs {
         Some(j) => j,
         None => default_jobs(&study)?,
@@ -309,13 +335,23 @@ fn default_jobs(study: &Study) -> Result<usize> {
 
 fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
     let s = study.scenario(c)?;
-    let part = super::cost::part_to_plan(&study.file, &s.part)?;
+    // Messages name the case: its warnings on a terminal that many cases share, its refusal.
+    let name = study.case_name(c);
+    let part = super::cost::part_to_plan(&name, &s.part)?;
     let mut d = RunDir::create(dir)?;
     let b = super::plan::build(&s, &part)?;
+    let keeps = super::cost::Keeps {
+        planned: part.mesh.n_vertices(),
+        ..case_keeps(&study.command, &s)
+    };
+    let warned = super::cost::check_case(&name, &s, &b, keeps)?;
     super::plan::write_plan(&mut d, &s, &b)?;
     let (cooling, sim) = b.case(study.command == "dwell")?;
     let dwell = &cooling.dwell_s;
-    super::simulate::write_thermal(&mut d, &b, &sim)?;
+    let after = super::simulate::write_thermal(&mut d, &b, &sim)?;
+    for w in warned.iter().chain(&after) {
+        eprintln!("case {}: {}", c.id, w.line);
+    }
     let overrides: serde_json::Map<String, Value> = c
         .overrides
         .iter()
@@ -340,7 +376,7 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
     };
     let mut csv = format!(
         "case,{},feasible,max_preheat_c,total_dwell_s,dwell_count,build_time_s,first_risk,\
-         first_risk_reason\n",
+         first_risk_reason,warnings\n",
         keys.join(",")
     );
     let read =
@@ -372,7 +408,7 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
             .collect();
         let _ = writeln!(
             csv,
-            "{},{},{},{:.2},{:.2},{},{:.2},{},{}",
+            "{},{},{},{:.2},{:.2},{},{:.2},{},{},{}",
             c.id,
             values.join(","),
             plan["feasible"],
@@ -383,7 +419,8 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
             thermal["first_overheat"]
                 .as_u64()
                 .map_or(String::new(), |v| v.to_string()),
-            thermal["first_overheat_reason"].as_str().unwrap_or("")
+            thermal["first_overheat_reason"].as_str().unwrap_or(""),
+            warning_kinds(&thermal)
         );
         rows += 1;
         #[cfg(feature = "recording")]
@@ -400,6 +437,17 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
         crate::record::study_plots(&mut RunDir::create(out)?, &tradeoff)?;
     }
     Ok(rows)
+}
+
+/// thermal.json's warnings as summary.csv holds them: their kinds, `;` between (empty where
+/// there are none).
+fn warning_kinds(thermal: &Value) -> String {
+    thermal["warnings"].as_array().map_or(String::new(), |w| {
+        w.iter()
+            .filter_map(|w| w["kind"].as_str())
+            .collect::<Vec<_>>()
+            .join(";")
+    })
 }
 
 /// Slurm scripts: a job array with one task per case shard, and a merge job that rebuilds

@@ -10,8 +10,40 @@
 //! against the beads' height ([`coarse_voxels`]): a cell much taller than a layer lays the
 //! layers in lumps.
 
+use crate::pipeline::params::{ThermalModel, ThermalSettings};
 use thermal::run::{Cells, RunResult};
 use thermal::schedule::{Deposit, arc_lengths, bead_volume};
+
+/// One of the warnings below, as a command shows it (`line`) and as a table names it (`kind`:
+/// a study's summary.csv, its case.json).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Warning {
+    /// The function that found it: `coarse_deposits`, `coarse_voxels` or `metal_off`.
+    pub kind: &'static str,
+    pub line: String,
+}
+
+/// The warnings a run of `deps` on the model `t` sets up earns before it starts: the thin wall's
+/// deposits against its nodes, the voxel edge against the beads' height (named `key`:
+/// `thermal.voxel_mm`, or `live.voxel_mm` where the twin has its own grid).
+pub fn before_run(t: &ThermalSettings, deps: &[Deposit], key: &str) -> Vec<Warning> {
+    match t.model {
+        ThermalModel::ThinWall => coarse_deposits(deps, t.node_m)
+            .map(|c| Warning {
+                kind: "coarse_deposits",
+                line: c.line(),
+            })
+            .into_iter()
+            .collect(),
+        ThermalModel::Voxel => coarse_voxels(deps, t.voxel_m)
+            .map(|c| Warning {
+                kind: "coarse_voxels",
+                line: c.line(key),
+            })
+            .into_iter()
+            .collect(),
+    }
+}
 
 /// The deposits longer than a node should be.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -147,6 +179,14 @@ impl Metal {
     pub fn off(self) -> Option<Metal> {
         (self.beads_m3 > 0.0 && !(METAL_BOUNDS[0]..=METAL_BOUNDS[1]).contains(&self.ratio()))
             .then_some(self)
+    }
+
+    /// The warning where it is off.
+    pub fn warning(self) -> Option<Warning> {
+        self.off().map(|m| Warning {
+            kind: "metal_off",
+            line: m.line(),
+        })
     }
 
     /// A warning for the terminal.
