@@ -311,7 +311,8 @@ fn a_sweep_of_too_many_cases_is_refused_at_once() {
 /// A study's cases carry the warnings their commands would show: of two voxel cases on an R 20
 /// dome's 1.96 mm beads, the 4 mm grid is named `coarse_voxels` in summary.csv, in its
 /// thermal.json and on stderr with its case's number, the 2 mm grid is not. A case whose plate
-/// cannot fit is refused before any case runs, naming the study file, the case and the key.
+/// cannot fit is refused before any case runs, naming the study file, the case and the key;
+/// the cases run at once are as many as the largest case leaves room for.
 #[test]
 fn a_studys_cases_carry_their_warnings_and_one_too_big_is_refused() {
     let dir = scratch("study_warnings");
@@ -369,4 +370,41 @@ fn a_studys_cases_carry_their_warnings_and_one_too_big_is_refused() {
         &["big.toml case 001", "thermal.voxel_mm = 0.3", "voxels"],
     );
     assert!(!refused.join("cases").join("000").exists());
+
+    // Cases at once are set by the largest: in 120 MB two of the base's fit (each under 52 MB,
+    // measured), one with a 400 mm plate (75-100 MB) does not fit twice.
+    let two_cores = std::thread::available_parallelism().is_ok_and(|n| n.get() >= 2);
+    for (name, plates, jobs) in [
+        (
+            "same",
+            "[[60.0, 60.0, 6.0], [60.0, 60.0, 6.0]]",
+            "2 at a time",
+        ),
+        (
+            "mixed",
+            "[[60.0, 60.0, 6.0], [400.0, 400.0, 12.0]]",
+            "1 at a time",
+        ),
+    ] {
+        let file = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &file,
+            format!("base = \"base.toml\"\n[sweep]\n\"thermal.plate_mm\" = {plates}\n"),
+        )
+        .unwrap();
+        let o = study_cmd(&[
+            file.to_str().unwrap(),
+            "-o",
+            dir.join(name).to_str().unwrap(),
+        ])
+        .env("WAAMTWIN_MEMORY_BYTES", "1.2e8")
+        .output()
+        .unwrap();
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        match two_cores {
+            true => assert!(text.contains(jobs), "{name}: {text}"),
+            false => eprintln!("skipped: one core, every study runs one case at a time"),
+        }
+    }
 }

@@ -222,10 +222,7 @@ pub fn check_deposits(
 /// the full estimate follows once the schedule is known).
 pub fn check_plate(file: &str, t: &ThermalSettings, m: &Material, keeps: Keeps) -> Result<()> {
     let e = estimate(t, &material(m, t), &[], 0.0, keeps.copies, keeps.frames, 1);
-    match available_memory() {
-        Some(avail) if e.bytes > avail => Err(refusal(file, t, &e, avail, "thermal.voxel_mm")),
-        _ => Ok(()),
-    }
+    fits(file, t, &e, "thermal.voxel_mm")
 }
 
 /// The part a command plans, refused where planning it cannot fit in the available memory: a

@@ -281,7 +281,7 @@ pub fn run(
     }
     let jobs = match jobs {
         Some(j) => j,
-        None => default_jobs(&study)?,
+        None => default_jobs(&study, &pending)?,
     }
     .min(pending.len().max(1));
     let pool = rayon::ThreadPoolBuilder::new()
@@ -299,34 +299,44 @@ pub fn run(
     }
     let rows = write_summary(&study, out)?;
     Ok(format!(
-        "{} cases run, {skipped} already done; summary.csv has {rows} of {} cases",
+        "{} cases run, {jobs} at a time, {skipped} already done; summary.csv has {rows} of {} cases",
         pending.len(),
         study.cases.len()
     ))
 }
 
-/// Cases at once by default: one per core, fewer where the memory a case needs (the base
-/// scenario's plate-only estimate, ×4 for a dwell search's checkpoints, ×2 for the part's metal
-/// and the process; or its plan's peak, where larger) would not fit that many; the base's plate
-/// alone must fit once.
-fn default_jobs(study: &Study) -> Result<usize> {
-    let base = Scenario::parse(&study.base_text, &study.file, &study.base_dir)?;
+/// Cases at once by default: one per core, fewer where the memory the largest pending case
+/// needs (its plate-only estimate, ×4 for a dwell search's checkpoints, ×2 for the part's metal
+/// and the process; or its plan's peak, where larger) would not fit that many. A sweep over
+/// `thermal.voxel_mm` or the part's size holds cases of very different sizes, so the base's
+/// own need (what was counted before) can let too many of the large ones run at once.
+fn default_jobs(study: &Study, pending: &[&&Case]) -> Result<usize> {
     let copies = if study.command == "dwell" { 4.0 } else { 1.0 };
-    let keeps = super::cost::Keeps {
-        copies,
-        ..super::cost::Keeps::ONE_RUN
-    };
-    super::cost::check_plate(&study.file, &base.thermal, &base.material, keeps)?;
-    let m = crate::pipeline::deposition::material(&base.material, &base.thermal);
-    let heat =
-        2.0 * crate::pipeline::cost::estimate(&base.thermal, &m, &[], 0.0, copies, 0, 1).bytes;
-    let vertices = match &base.part.source {
-        crate::scenario::PartSource::Shape { shape, edge_mm } => shape.vertices(*edge_mm),
-        crate::scenario::PartSource::Mesh(_) => {
-            crate::part::load_part(&base.part)?.mesh.n_vertices()
-        }
-    };
-    let per_case = heat.max(crate::pipeline::cost::plan_bytes(vertices));
+    let mut per_case: f64 = 0.0;
+    // A mesh file's vertices once per file: the overrides seldom change it.
+    let mut meshes: Vec<(std::path::PathBuf, usize)> = Vec::new();
+    for c in pending {
+        let s = study.scenario(c)?;
+        let m = crate::pipeline::deposition::material(&s.material, &s.thermal);
+        let heat =
+            2.0 * crate::pipeline::cost::estimate(&s.thermal, &m, &[], 0.0, copies, 0, 1).bytes;
+        let vertices = match &s.part.source {
+            crate::scenario::PartSource::Shape { shape, edge_mm } => shape.vertices(*edge_mm),
+            crate::scenario::PartSource::Mesh(path) => {
+                match meshes.iter().find(|(p, _)| p == path) {
+                    Some(&(_, v)) => v,
+                    None => {
+                        let v = crate::part::load_part(&s.part)?.mesh.n_vertices();
+                        meshes.push((path.clone(), v));
+                        v
+                    }
+                }
+            }
+        };
+        per_case = per_case
+            .max(heat)
+            .max(crate::pipeline::cost::plan_bytes(vertices));
+    }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let by_memory = super::cost::available_memory()
         .map_or(cores, |avail| (avail / per_case.max(1.0)).floor() as usize);
