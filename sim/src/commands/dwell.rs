@@ -33,7 +33,7 @@ pub fn run(
 ) -> Result<String> {
     let s = Scenario::load(scenario)?;
     let file = scenario.display().to_string();
-    super::cost::check_plate(&file, &s.thermal, &s.material, keeps(&s))?;
+    super::cost::check_plate(&file, &s.thermal, &s.material, keeps(&s, extras))?;
     let mut dir = RunDir::create(out)?;
     let line = plan_and_dwell(&s, &file, &mut dir, extras, Some(resume))?;
     dir.finish("dwell", s.to_json())?;
@@ -117,23 +117,33 @@ fn confidence_json(
 /// search (dwells tried and the runs from their checkpoints), the arc-stop bound (each deposit
 /// laid about once and a stretch's last few again from its copy, `pipeline::bound`: 1.13
 /// builds laid on the demo dome), the revolution-dwell yardstick (each revolution's shortest
-/// safe dwell found by trying dwells through it) and the run with the dwells.
+/// safe dwell found by trying dwells through it) and the run with the dwells; and the
+/// baselines where they are made (`--no-baselines` leaves them out): the uniform dwell's halving
+/// search (a run at the longest dwell, then some eight runs each to its first point at risk)
+/// and wait-until-cool's three runs (`pipeline::dwelled::baselines`).
 struct Builds {
     yardstick: f64,
     search: f64,
     bound: f64,
     dwelled: f64,
+    baselines: f64,
 }
 
 /// On the thin wall, one thread (2026-11-28, `RAYON_NUM_THREADS=1`, the R 50 dome, the demo
 /// dome, the vase and the cone: 8.0 to 9.3 builds in all, the yardstick 3.2 to 3.8 of them by
 /// what the rest leaves): with local steps a node's cost is its deposits', not the build's
 /// seconds, so the dwelled run costs about what the build does (1.17 to 1.25).
+///
+/// The baselines on one thread 8.8, 9.8 and 11.3 builds (the demo dome, the vase, the cone;
+/// 2026-11-29, dwell.json's `baselines.wall_s` over its `single_build_wall_s`), uncounted before,
+/// so that `dwell` with them said "about 36 s" for 58 s and "1.1 min" for 145 s; on two threads
+/// 6.1, 6.7 and 8.3 ([`BASELINES_BESIDE_SHARE`]).
 const THIN_WALL: Builds = Builds {
     yardstick: 3.5,
     search: 2.5,
     bound: 1.2,
     dwelled: 1.3,
+    baselines: 11.0,
 };
 
 /// The voxel model steps the build's seconds, and every dwell tried costs the seconds it
@@ -142,11 +152,15 @@ const THIN_WALL: Builds = Builds {
 /// the dwelled run 2.3 and 2.1, the yardstick, the bound and the run without dwells 21.9 and
 /// 11.0; fitted to the R 50 dome (the longer in builds), 1.6 times long at R 100. Before, 15.7
 /// builds in all (a yardstick of 9), which put the estimate at 0.39 and 0.64 of the command.
+///
+/// The baselines on the R 50 dome 7.2 builds made one after the other, 6.0 side by side
+/// (2026-11-29; its runs share the threads, so the second is counted).
 const VOXEL: Builds = Builds {
     yardstick: 20.0,
     search: 16.0,
     bound: 1.2,
     dwelled: 2.5,
+    baselines: 6.0,
 };
 
 /// On the thin wall with a second thread the yardstick is made beside the rest
@@ -154,23 +168,32 @@ const VOXEL: Builds = Builds {
 /// the demo) of one thread's time (2026-11-28): the least saving is counted.
 const BESIDE_SHARE: f64 = 0.85;
 
+/// On the thin wall with a second thread wait-until-cool's runs are made beside the uniform
+/// dwell's search, which took the baselines to 0.65, 0.70 and 0.77 of their time one after the
+/// other (the demo dome, the vase, the cone; 2026-11-29): the least saving is counted.
+const BASELINES_BESIDE_SHARE: f64 = 0.77;
+
 /// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
 /// the cache's cooled copies: about four models at once) and, beside it, the revolution-dwell
 /// yardstick (its run, the revolution's start and a try: three more, and the cooled states its
 /// tries go on from, those between a failing and a passing try, not counted here; the peak
 /// measured no higher for them at R 400, 1.46 GB, and 6 % higher at R 100). Its runs are
-/// [`Builds`]; the baselines (`--no-baselines` leaves them out) are not counted.
-pub(crate) fn keeps(s: &Scenario) -> super::cost::Keeps {
+/// [`Builds`], the baselines among them where `extras` makes them.
+pub(crate) fn keeps(s: &Scenario, extras: Extras) -> super::cost::Keeps {
     let b = match s.thermal.model {
         ThermalModel::ThinWall => THIN_WALL,
         ThermalModel::Voxel => VOXEL,
     };
     let all = 1.0 + b.search + b.bound + b.yardstick + b.dwelled;
+    let baselines = match extras.baselines {
+        true => b.baselines,
+        false => 0.0,
+    };
     // The thin wall steps on one thread; the voxel model's runs share the threads.
     let beside = s.thermal.model == ThermalModel::ThinWall && rayon::current_num_threads() > 1;
     let together = match beside {
-        true => all * BESIDE_SHARE,
-        false => all,
+        true => all * BESIDE_SHARE + baselines * BASELINES_BESIDE_SHARE,
+        false => all + baselines,
     };
     super::cost::Keeps {
         copies: 7.0,
@@ -213,7 +236,7 @@ pub fn plan_and_dwell(
         b.deposits().last().map_or(0.0, |d| d.time),
         super::cost::Keeps {
             planned: part.mesh.n_vertices(),
-            ..keeps(s)
+            ..keeps(s, extras)
         },
     )?;
     let mut ck = match folder.as_mut() {
@@ -388,6 +411,8 @@ fn write(
                 m
             });
         summary["baselines"] = json!({
+            // What they cost this command, s (`--no-baselines` saves it).
+            "wall_s": bl.wall_s,
             "none": {"total_dwell_s": 0.0, "first_risk": first_risk_json(b, before)},
             "uniform": {
                 "dwell_per_revolution_s": uniform.dwell_s,

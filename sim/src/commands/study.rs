@@ -217,7 +217,8 @@ impl Study {
 /// What a case keeps: its command's (`simulate`'s one run, or `dwell`'s search).
 fn case_keeps(command: &str, s: &Scenario) -> super::cost::Keeps {
     match command {
-        "dwell" => super::dwell::keeps(s),
+        // A study's dwell makes no baselines (`Build::case`).
+        "dwell" => super::dwell::keeps(s, super::dwell::Extras::default()),
         _ => super::simulate::one_run(s),
     }
 }

@@ -82,6 +82,9 @@ pub struct Baselines {
     pub waits: Vec<f64>,
     pub wait_risk: Option<(usize, Risk)>,
     pub wait_risks: Vec<Option<Risk>>,
+    /// Wall time this command spent on them, s (none for the stages a `--resume` took from
+    /// its checkpoints).
+    pub wall_s: f64,
 }
 
 /// Everything a dwell run found.
@@ -324,18 +327,48 @@ fn check_both(
     })
 }
 
-/// The uniform dwell and wait-until-cool baselines of `b` against `plan`.
+/// The uniform dwell and wait-until-cool baselines of `b` against `plan`. The two share
+/// nothing, so wait-until-cool's runs are a rayon task beside the uniform dwell's search (as the
+/// yardstick is beside the search, [`with_yardstick`]): on the thin wall, which steps on one
+/// thread, a second worker takes the shorter of the two off the wall time; the results are those
+/// made one after the other.
 fn baselines(b: &Build, plan: &DwellPlan, ck: &mut Checkpoints<'_>) -> Result<Baselines, Error> {
+    let clock = std::time::Instant::now();
     let deps = b.deposits();
     let pl = &b.plan;
     let model = b.heat_model(deps, Vec::new());
     let pacing = b.pacing();
     let search = b.search(&pacing);
-    let uniform = ck
-        .stage("uniform", |_, _| {
+    let kept = KeptWaits {
+        waits: ck.done(WAIT).map(|d| d.0),
+        risk: ck.done(WAIT_RISK).map(|d| d.0),
+        risks: ck.done(WAIT_RUN).map(|d| d.0),
+    };
+    let mut made = None;
+    let uniform = rayon::in_place_scope(|scope| {
+        scope.spawn(|_| made = Some(wait_until_cool_runs(b, &search, kept)));
+        ck.stage("uniform", |_, _| {
             uniform_baseline(&search, pl, &model, deps)
-        })?
-        .0;
+        })
+    });
+    let (waited, [spent_waits, spent_risk, spent_run]) = made.expect("the scope ran the task")?;
+    let uniform = uniform?.0;
+    let Waited {
+        waits,
+        risk: wait_risk,
+        risks: wait_risks,
+    } = waited;
+    // Each stage the task made kept as `ck.stage` would have kept it, once both are done (the
+    // task holds no `Checkpoints`: a kill before then makes its stages again).
+    if let Some(s) = spent_waits {
+        ck.keep_done(WAIT, &waits, s);
+    }
+    if let Some(s) = spent_risk {
+        ck.keep_done(WAIT_RISK, &wait_risk, s);
+    }
+    if let Some(s) = spent_run {
+        ck.keep_done(WAIT_RUN, &wait_risks, s);
+    }
     // Where the uniform policy stops working (a dome's closing zone), both are compared on the
     // points before.
     let until = uniform.until;
@@ -344,23 +377,6 @@ fn baselines(b: &Build, plan: &DwellPlan, ck: &mut Checkpoints<'_>) -> Result<Ba
         .filter(|&i| i < until)
         .count();
     let planned_there_s: f64 = plan.dwell_s()[..until].iter().sum();
-    let waits = ck
-        .stage("wait_until_cool", |_, _| {
-            wait_until_cool(&search, pl, &model, deps)
-        })?
-        .0;
-    let n = deps.len();
-    let wait_risk = ck
-        .stage("wait_until_cool_risk", |_, _| {
-            first_risk(&search, &model, deps, &waits, n)
-        })?
-        .0;
-    // Where it fails, all of it: a fresh run with its waits, every point judged.
-    let wait_risks = ck
-        .stage("wait_until_cool_run", |_, _| {
-            Ok::<_, ThermalError>(b.simulate(&waits, 0)?.risks(&b.criteria))
-        })?
-        .0;
     Ok(Baselines {
         uniform,
         slots,
@@ -368,7 +384,69 @@ fn baselines(b: &Build, plan: &DwellPlan, ck: &mut Checkpoints<'_>) -> Result<Ba
         waits,
         wait_risk,
         wait_risks,
+        wall_s: clock.elapsed().as_secs_f64(),
     })
+}
+
+/// The checkpoint stages of the wait-until-cool baseline: its waits, their first risk, every
+/// point's risk in a fresh run with them.
+const WAIT: &str = "wait_until_cool";
+const WAIT_RISK: &str = "wait_until_cool_risk";
+const WAIT_RUN: &str = "wait_until_cool_run";
+
+/// The wait-until-cool baseline: its waits, their first risk, and every point's risk in a
+/// fresh run with them.
+struct Waited {
+    waits: Vec<f64>,
+    risk: Option<(usize, Risk)>,
+    risks: Vec<Option<Risk>>,
+}
+
+/// The stages of [`Waited`] an earlier run kept.
+struct KeptWaits {
+    waits: Option<Vec<f64>>,
+    risk: Option<Option<(usize, Risk)>>,
+    risks: Option<Vec<Option<Risk>>>,
+}
+
+/// The stages of the wait-until-cool baseline, each taken from `kept` or made, with the
+/// wall-clock seconds each one made took.
+fn wait_until_cool_runs(
+    b: &Build,
+    search: &super::dwell::Search,
+    kept: KeptWaits,
+) -> Result<(Waited, [Option<f64>; 3]), Error> {
+    let deps = b.deposits();
+    let model = b.heat_model(deps, Vec::new());
+    let mut spent = [None; 3];
+    let waits = kept_or_made(kept.waits, &mut spent[0], || {
+        wait_until_cool(search, &b.plan, &model, deps)
+    })?;
+    let risk = kept_or_made(kept.risk, &mut spent[1], || {
+        first_risk(search, &model, deps, &waits, deps.len())
+    })?;
+    // Where it fails, all of it: a fresh run with its waits, every point judged.
+    let risks = kept_or_made(kept.risks, &mut spent[2], || {
+        Ok::<_, ThermalError>(b.simulate(&waits, 0)?.risks(&b.criteria))
+    })?;
+    Ok((Waited { waits, risk, risks }, spent))
+}
+
+/// `kept`, or `make`'s result and the seconds it took in `spent`.
+fn kept_or_made<T>(
+    kept: Option<T>,
+    spent: &mut Option<f64>,
+    make: impl FnOnce() -> Result<T, ThermalError>,
+) -> Result<T, ThermalError> {
+    match kept {
+        Some(t) => Ok(t),
+        None => {
+            let clock = std::time::Instant::now();
+            let t = make()?;
+            *spent = Some(clock.elapsed().as_secs_f64());
+            Ok(t)
+        }
+    }
 }
 
 #[cfg(test)]
