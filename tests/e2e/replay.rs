@@ -154,7 +154,8 @@ fn a_bad_toolpath_line_is_named() {
 /// A logged track whose points lie a bead's height over the plate lays the beads' metal
 /// (replay.json: `metal_mm3` within 15 % of `beads_mm3`, 336 of 320 mm³ measured, no warning); the same track with
 /// its z half a bead low (a logger's offset) lays none of it, and the replay says so on stderr
-/// with the two volumes and the keys to look at, instead of heating a part that is not there.
+/// with the two volumes and the keys to look at, instead of heating a part that is not there,
+/// and replay.json's `warnings` holds it.
 #[test]
 fn a_track_laid_inside_the_plate_is_named() {
     let dir = scratch("replay_inside_plate");
@@ -184,18 +185,26 @@ fn a_track_laid_inside_the_plate_is_named() {
             r["metal_mm3"].as_f64().unwrap(),
             r["beads_mm3"].as_f64().unwrap(),
         );
-        (laid, beads, err)
+        let kinds: Vec<String> = r["warnings"]
+            .as_array()
+            .expect("replay.json's warnings")
+            .iter()
+            .map(|w| w["kind"].as_str().unwrap().to_string())
+            .collect();
+        (laid, beads, err, kinds)
     };
     // 40 mm × 4 mm × 2 mm of bead.
-    let (laid, beads, err) = track("on_top", 2.0);
+    let (laid, beads, err, kinds) = track("on_top", 2.0);
     assert_eq!(beads, 320.0);
     assert!((laid / beads - 1.0).abs() < 0.15, "{laid} of {beads} mm³");
     assert!(!err.contains("warning: voxel model"), "{err}");
-    let (laid, beads, err) = track("inside", 1.0);
+    assert!(kinds.is_empty(), "{kinds:?}");
+    let (laid, beads, err, kinds) = track("inside", 1.0);
     assert_eq!((laid, beads), (0.0, 320.0));
     for needle in ["laid 0.0 mm³", "hold 320.0 mm³", "under half", "voxel_mm"] {
         assert!(err.contains(needle), "{needle}: {err}");
     }
+    assert_eq!(kinds, ["metal_off"]);
 }
 
 /// The GAMMA wall calibrated on the first half of its build and judged on the second, as

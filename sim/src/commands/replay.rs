@@ -122,9 +122,17 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         thermal::Cells::ThinWall { wall_nodes, .. } => ("thin-wall", None, Some(wall_nodes)),
     };
     let metal = crate::pipeline::resolution::metal(&result, &deps);
-    if let Some(m) = metal.and_then(crate::pipeline::resolution::Metal::off) {
-        eprintln!("{}", m.line());
+    let after: Vec<_> = metal
+        .and_then(crate::pipeline::resolution::Metal::warning)
+        .into_iter()
+        .collect();
+    for w in &after {
+        eprintln!("{}", w.line);
     }
+    // As simulate's thermal.json.
+    let before =
+        crate::pipeline::resolution::before_run(&r.values.thermal, &deps, "thermal.voxel_mm");
+    let warnings = super::simulate::warnings_json(&before, &after);
     let overall = overall(&compared);
     dir.write_json(
         "replay.json",
@@ -135,6 +143,7 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
             "wall_nodes": wall_nodes,
             "metal_mm3": metal.map(|m| m.mm3()[0]),
             "beads_mm3": metal.map(|m| m.mm3()[1]),
+            "warnings": warnings,
             "steps": result.steps,
             "build_s": build_s,
             "wall_s": wall_s,

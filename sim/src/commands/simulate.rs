@@ -135,6 +135,19 @@ pub fn summary(b: &Build, sim: &Simulation) -> String {
     )
 }
 
+/// The outputs' `warnings`: what the grid or the path made doubtful before the run and after,
+/// each its kind and the line the command showed.
+pub fn warnings_json(
+    before: &[resolution::Warning],
+    after: &[resolution::Warning],
+) -> Vec<serde_json::Value> {
+    before
+        .iter()
+        .chain(after)
+        .map(|w| json!({"kind": w.kind, "message": w.line}))
+        .collect()
+}
+
 /// thermal.json, layers.csv, and path.csv again with times, dwells and per-point results.
 /// thermal.json's `warnings` are those the run earned before it started (shown with its
 /// estimate) and after (the voxel grid's metal against the beads'); the latter are returned, for
@@ -184,12 +197,8 @@ pub fn write_thermal(
         .and_then(resolution::Metal::warning)
         .into_iter()
         .collect();
-    let warnings: Vec<serde_json::Value> =
-        resolution::before_run(&params.thermal, b.deposits(), "thermal.voxel_mm")
-            .iter()
-            .chain(&after)
-            .map(|w| json!({"kind": w.kind, "message": w.line}))
-            .collect();
+    let before = resolution::before_run(&params.thermal, b.deposits(), "thermal.voxel_mm");
+    let warnings = warnings_json(&before, &after);
     let json = json!({
         "model": sim.model,
         "energy_in_j": r.ledger.energy_in(),
