@@ -134,10 +134,10 @@ struct Builds {
 /// what the rest leaves): with local steps a node's cost is its deposits', not the build's
 /// seconds, so the dwelled run costs about what the build does (1.17 to 1.25).
 ///
-/// The baselines on one thread 8.8, 9.8 and 11.3 builds (the demo dome, the vase, the cone;
-/// 2026-11-29, dwell.json's `baselines.wall_s` over its `single_build_wall_s`), uncounted before,
-/// so that `dwell` with them said "about 36 s" for 58 s and "1.1 min" for 145 s; on two threads
-/// 6.1, 6.7 and 8.3 ([`BASELINES_BESIDE_SHARE`]).
+/// The baselines made one after the other 8.8, 9.8 and 11.3 builds (the demo dome, the vase,
+/// the cone; 2026-11-29, dwell.json's `baselines.wall_s` over its `single_build_wall_s`),
+/// uncounted before, so that `dwell` with them said "about 36 s" for 58 s and "1.1 min" for
+/// 145 s; made side by side on two threads 6.1, 6.7 and 8.3 ([`BASELINES_BESIDE_SHARE`]).
 const THIN_WALL: Builds = Builds {
     yardstick: 3.5,
     search: 2.5,

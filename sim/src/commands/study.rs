@@ -173,6 +173,11 @@ pub fn parse(text: &str, file: &str, dir: &Path) -> Result<Study> {
 }
 
 impl Study {
+    /// A case as messages name it: the study file and the case's number.
+    fn case_name(&self, c: &Case) -> String {
+        format!("{} case {}", self.file, c.id)
+    }
+
     /// The base scenario with a case's overrides ("section.key" = value). Errors name the
     /// study file, the case and its overrides.
     pub fn scenario(&self, c: &Case) -> Result<Scenario> {
@@ -204,13 +209,6 @@ impl Study {
         let text = toml::to_string(&t).map_err(|e| Error::failure(e.to_string()))?;
         let kept: Vec<String> = c.overrides.iter().map(|o| o.0.clone()).collect();
         Scenario::parse_generated(&text, &what, &self.base_dir, &kept)
-    }
-}
-
-impl Study {
-    /// A case as messages name it: the study file and the case's number.
-    fn case_name(&self, c: &Case) -> String {
-        format!("{} case {}", self.file, c.id)
     }
 }
 

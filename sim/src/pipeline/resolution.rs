@@ -14,8 +14,8 @@ use crate::pipeline::params::{ThermalModel, ThermalSettings};
 use thermal::run::{Cells, RunResult};
 use thermal::schedule::{Deposit, arc_lengths, bead_volume};
 
-/// One of the warnings below, as a command shows it (`line`) and as a table names it (`kind`:
-/// a study's summary.csv, its case.json).
+/// One of the warnings below, as a command shows it (`line`) and as the outputs name it
+/// (`kind`: thermal.json's and replay.json's `warnings`, a study's summary.csv).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
     /// The function that found it: `coarse_deposits`, `coarse_voxels` or `metal_off`.
