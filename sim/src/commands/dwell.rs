@@ -173,6 +173,21 @@ const BESIDE_SHARE: f64 = 0.85;
 /// other (the demo dome, the vase, the cone; 2026-11-29): the least saving is counted.
 const BASELINES_BESIDE_SHARE: f64 = 0.77;
 
+/// What a study's dwell case keeps and runs (`Build::case`): the search alone, which restarts
+/// from checkpoints (about four models at once), and the run with its dwells; no yardstick, bound
+/// or baselines.
+pub(crate) fn search_keeps(s: &Scenario) -> super::cost::Keeps {
+    let b = match s.thermal.model {
+        ThermalModel::ThinWall => THIN_WALL,
+        ThermalModel::Voxel => VOXEL,
+    };
+    super::cost::Keeps {
+        copies: 4.0,
+        runs: b.search + b.dwelled,
+        ..super::cost::Keeps::ONE_RUN
+    }
+}
+
 /// What a dwell command keeps and runs: the search restarts from checkpoints (a run kept with
 /// the cache's cooled copies: about four models at once) and, beside it, the revolution-dwell
 /// yardstick (its run, the revolution's start and a try: three more, and the cooled states its

@@ -212,12 +212,12 @@ impl Study {
     }
 }
 
-/// What a case keeps: its command's (`simulate`'s one run, or `dwell`'s search).
+/// What a case keeps: `simulate`'s one run, or a dwell case's search and dwelled run.
 fn case_keeps(command: &str, s: &Scenario) -> super::cost::Keeps {
     match command {
-        // A study's dwell makes no baselines (`Build::case`).
-        "dwell" => super::dwell::keeps(s, super::dwell::Extras::default()),
-        _ => super::simulate::one_run(s),
+        "dwell" => super::dwell::search_keeps(s),
+        // A case records nothing (`run_case`): one run of the model.
+        _ => super::cost::Keeps::ONE_RUN,
     }
 }
 
@@ -305,18 +305,18 @@ pub fn run(
 }
 
 /// Cases at once by default: one per core, fewer where the memory the largest pending case
-/// needs (its plate-only estimate, ×4 for a dwell search's checkpoints, ×2 for the part's metal
+/// needs (its plate-only estimate, with the copies its command keeps, ×2 for the part's metal
 /// and the process; or its plan's peak, where larger) would not fit that many. A sweep over
 /// `thermal.voxel_mm` or the part's size holds cases of very different sizes, so the base's
 /// own need (what was counted before) can let too many of the large ones run at once.
 fn default_jobs(study: &Study, pending: &[&&Case]) -> Result<usize> {
-    let copies = if study.command == "dwell" { 4.0 } else { 1.0 };
     let mut per_case: f64 = 0.0;
     // A mesh file's vertices once per file: the overrides seldom change it.
     let mut meshes: Vec<(std::path::PathBuf, usize)> = Vec::new();
     for c in pending {
         let s = study.scenario(c)?;
         let m = crate::pipeline::deposition::material(&s.material, &s.thermal);
+        let copies = case_keeps(&study.command, &s).copies;
         let heat =
             2.0 * crate::pipeline::cost::estimate(&s.thermal, &m, &[], 0.0, copies, 0, 1).bytes;
         let vertices = match &s.part.source {
