@@ -120,13 +120,16 @@ fn confidence_json(
 /// safe dwell found by trying dwells through it) and the run with the dwells; and the
 /// baselines where they are made (`--no-baselines` leaves them out): the uniform dwell's halving
 /// search (a run at the longest dwell, then some eight runs each to its first point at risk)
-/// and wait-until-cool's three runs (`pipeline::dwelled::baselines`).
+/// and wait-until-cool's three runs (`pipeline::dwelled::baselines`); and `--pareto`'s front
+/// where it is asked for (a search at each weight of an arc stop the search did not try,
+/// `pipeline::arc_stops::front`).
 struct Builds {
     yardstick: f64,
     search: f64,
     bound: f64,
     dwelled: f64,
     baselines: f64,
+    front: f64,
 }
 
 /// On the thin wall, one thread (2026-11-28, `RAYON_NUM_THREADS=1`, the R 50 dome, the demo
@@ -138,12 +141,17 @@ struct Builds {
 /// the cone; 2026-11-29, dwell.json's `baselines.wall_s` over its `single_build_wall_s`),
 /// uncounted before, so that `dwell` with them said "about 36 s" for 58 s and "1.1 min" for
 /// 145 s; made side by side on two threads 6.1, 6.7 and 8.3 ([`BASELINES_BESIDE_SHARE`]).
+/// `--pareto`'s front 35.4 and 37.6 builds (the demo dome, the vase, with `--no-baselines`: the
+/// command's wall time with the front less without, 2026-11-29), some 17.5 times the search:
+/// five searches at the heavier weights, each longer than the unweighted one; uncounted before
+/// ("about 36 s" for 160 s on the demo).
 const THIN_WALL: Builds = Builds {
     yardstick: 3.5,
     search: 2.5,
     bound: 1.2,
     dwelled: 1.3,
     baselines: 11.0,
+    front: 38.0,
 };
 
 /// The voxel model steps the build's seconds, and every dwell tried costs the seconds it
@@ -154,13 +162,15 @@ const THIN_WALL: Builds = Builds {
 /// builds in all (a yardstick of 9), which put the estimate at 0.39 and 0.64 of the command.
 ///
 /// The baselines on the R 50 dome 7.2 builds made one after the other, 6.0 side by side
-/// (2026-11-29; its runs share the threads, so the second is counted).
+/// (2026-11-29; its runs share the threads, so the second is counted). The front not measured on
+/// it: reckoned as the thin wall's, 17.5 times the search.
 const VOXEL: Builds = Builds {
     yardstick: 20.0,
     search: 16.0,
     bound: 1.2,
     dwelled: 2.5,
     baselines: 6.0,
+    front: 280.0,
 };
 
 /// On the thin wall with a second thread the yardstick is made beside the rest
@@ -193,7 +203,7 @@ pub(crate) fn search_keeps(s: &Scenario) -> super::cost::Keeps {
 /// yardstick (its run, the revolution's start and a try: three more, and the cooled states its
 /// tries go on from, those between a failing and a passing try, not counted here; the peak
 /// measured no higher for them at R 400, 1.46 GB, and 6 % higher at R 100). Its runs are
-/// [`Builds`], the baselines among them where `extras` makes them.
+/// [`Builds`], the baselines and the front among them where `extras` makes them.
 pub(crate) fn keeps(s: &Scenario, extras: Extras) -> super::cost::Keeps {
     let b = match s.thermal.model {
         ThermalModel::ThinWall => THIN_WALL,
@@ -204,12 +214,18 @@ pub(crate) fn keeps(s: &Scenario, extras: Extras) -> super::cost::Keeps {
         true => b.baselines,
         false => 0.0,
     };
+    // The front's searches one after another, beside nothing.
+    let front = match extras.pareto {
+        true => b.front,
+        false => 0.0,
+    };
     // The thin wall steps on one thread; the voxel model's runs share the threads.
     let beside = s.thermal.model == ThermalModel::ThinWall && rayon::current_num_threads() > 1;
-    let together = match beside {
-        true => all * BESIDE_SHARE + baselines * BASELINES_BESIDE_SHARE,
-        false => all + baselines,
-    };
+    let together = front
+        + match beside {
+            true => all * BESIDE_SHARE + baselines * BASELINES_BESIDE_SHARE,
+            false => all + baselines,
+        };
     super::cost::Keeps {
         copies: 7.0,
         frames: s.output.frames,
