@@ -183,14 +183,19 @@ const BESIDE_SHARE: f64 = 0.85;
 /// other (the demo dome, the vase, the cone; 2026-11-29): the least saving is counted.
 const BASELINES_BESIDE_SHARE: f64 = 0.77;
 
+/// The runs a dwell command makes on `model`, in builds.
+fn builds(model: ThermalModel) -> Builds {
+    match model {
+        ThermalModel::ThinWall => THIN_WALL,
+        ThermalModel::Voxel => VOXEL,
+    }
+}
+
 /// What a study's dwell case keeps and runs (`Build::case`): the search alone, which restarts
 /// from checkpoints (about four models at once), and the run with its dwells; no yardstick, bound
 /// or baselines.
 pub(crate) fn search_keeps(s: &Scenario) -> super::cost::Keeps {
-    let b = match s.thermal.model {
-        ThermalModel::ThinWall => THIN_WALL,
-        ThermalModel::Voxel => VOXEL,
-    };
+    let b = builds(s.thermal.model);
     super::cost::Keeps {
         copies: 4.0,
         runs: b.search + b.dwelled,
@@ -205,10 +210,7 @@ pub(crate) fn search_keeps(s: &Scenario) -> super::cost::Keeps {
 /// measured no higher for them at R 400, 1.46 GB, and 6 % higher at R 100). Its runs are
 /// [`Builds`], the baselines and the front among them where `extras` makes them.
 pub(crate) fn keeps(s: &Scenario, extras: Extras) -> super::cost::Keeps {
-    let b = match s.thermal.model {
-        ThermalModel::ThinWall => THIN_WALL,
-        ThermalModel::Voxel => VOXEL,
-    };
+    let b = builds(s.thermal.model);
     let all = 1.0 + b.search + b.bound + b.yardstick + b.dwelled;
     let baselines = match extras.baselines {
         true => b.baselines,
