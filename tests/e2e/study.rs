@@ -408,3 +408,82 @@ fn a_studys_cases_carry_their_warnings_and_one_too_big_is_refused() {
         }
     }
 }
+
+/// A case that fails does not cost the others theirs: of an R 15 and an R 60 dome on one 80 mm
+/// plate, the R 60 one outgrows the plate (found once it is planned), its folder keeps the
+/// message in failed.json and failed.csv names it, the R 15 dome's row is in summary.csv, and
+/// the study exits 2 naming the case and the key. Given a plate that holds it, the study runs
+/// that case alone and failed.csv is gone.
+#[test]
+fn a_failed_case_is_named_and_the_others_finish() {
+    let dir = scratch("study_failed_case");
+    let base = |plate: f64| {
+        format!(
+            "[part]\nshape = \"hemisphere\"\nradius_mm = 15.0\nedge_mm = 2.5\n[planner]\n\
+             n_points = 40\n[thermal]\nplate_mm = [{plate}, {plate}, 6.0]\n\
+             [output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n"
+        )
+    };
+    std::fs::write(dir.join("base.toml"), base(80.0)).unwrap();
+    let study = dir.join("sizes.toml");
+    std::fs::write(
+        &study,
+        "base = \"base.toml\"\n[sweep]\n\"part.radius_mm\" = [15.0, 60.0]\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let run = || {
+        study_cmd(&[study.to_str().unwrap(), "-o", out.to_str().unwrap()])
+            .output()
+            .unwrap()
+    };
+    let o = run();
+    crate::assert_input_error(
+        &o,
+        &[
+            "1 of 2 cases failed",
+            "failed.csv",
+            "sizes.toml case 001 (part.radius_mm = 60.0)",
+            "plate_mm",
+            "summary.csv has 1 of 2 cases",
+        ],
+    );
+    let (header, rows) = crate::read_csv(&out.join("summary.csv"));
+    assert_eq!(header[..2], ["case", "part.radius_mm"]);
+    assert_eq!(
+        rows.iter().map(|r| r[0].as_str()).collect::<Vec<_>>(),
+        ["000"]
+    );
+    let failed = std::fs::read_to_string(out.join("failed.csv")).unwrap();
+    let lines: Vec<&str> = failed.lines().collect();
+    assert_eq!(lines[0], "case,part.radius_mm,exit_code,message");
+    assert!(
+        lines.len() == 2
+            && lines[1].starts_with("001,60.0,2,\"")
+            && lines[1].contains("sizes.toml case 001 (part.radius_mm = 60.0): thermal:"),
+        "{failed}"
+    );
+    let kept: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(out.join("cases").join("001").join("failed.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(kept["exit_code"], 2);
+    assert!(
+        kept["message"]
+            .as_str()
+            .unwrap()
+            .contains("outside the plate")
+    );
+
+    std::fs::write(dir.join("base.toml"), base(200.0)).unwrap();
+    let o = run();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        text.contains("1 cases run") && text.contains("1 already done"),
+        "{text}"
+    );
+    assert!(!out.join("failed.csv").exists());
+    assert!(!out.join("cases").join("001").join("failed.json").exists());
+    assert_eq!(crate::read_csv(&out.join("summary.csv")).1.len(), 2);
+}

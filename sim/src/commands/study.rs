@@ -14,9 +14,10 @@
 //!
 //! Each case runs in `DIR/cases/NNN` and is done once its manifest.json exists (written last,
 //! atomically), so a killed study resumes where it stopped and shards of a cluster's job array
-//! can share DIR. `summary.csv` is rebuilt from every finished case after each run.
+//! can share DIR. `summary.csv` is rebuilt from every finished case after each run, and
+//! `failed.csv` from every failed one (a failed case keeps `failed.json`; the others go on).
 
-use crate::error::{Error, Result};
+use crate::error::{Error, ErrorKind, Result};
 use crate::output::{RunDir, write_atomic};
 use crate::scenario::Scenario;
 use rayon::prelude::*;
@@ -178,19 +179,23 @@ impl Study {
         format!("{} case {}", self.file, c.id)
     }
 
-    /// The base scenario with a case's overrides ("section.key" = value). Errors name the
-    /// study file, the case and its overrides.
-    pub fn scenario(&self, c: &Case) -> Result<Scenario> {
-        let what = format!(
-            "{} case {} ({})",
-            self.file,
-            c.id,
+    /// A case as an error names it: the study file, the case's number and its overrides.
+    fn case_label(&self, c: &Case) -> String {
+        format!(
+            "{} ({})",
+            self.case_name(c),
             c.overrides
                 .iter()
                 .map(|(k, v)| format!("{k} = {v}"))
                 .collect::<Vec<_>>()
                 .join(", ")
-        );
+        )
+    }
+
+    /// The base scenario with a case's overrides ("section.key" = value). Errors name the
+    /// study file, the case and its overrides.
+    pub fn scenario(&self, c: &Case) -> Result<Scenario> {
+        let what = self.case_label(c);
         let fail = |m: String| Error::input(format!("{what}: {m}"));
         let mut t: toml::Table =
             toml::from_str(&self.base_text).map_err(|e| fail(e.message().into()))?;
@@ -293,15 +298,74 @@ pub fn run(
             .map(|c| run_case(&study, c, &out.join("cases").join(&c.id)))
             .collect()
     });
-    for r in results {
-        r?;
+    // A case that fails is kept with its message and the others go on: one case of a night's
+    // sweep that outgrows its plate or its memory must not cost the rest their summary. A stop
+    // asked for (Ctrl-C from Python) stops the study, and is no case's failure.
+    let mut stopped = None;
+    let mut failed = Vec::new();
+    for (c, r) in pending.iter().zip(results) {
+        match r {
+            Ok(()) => {}
+            Err(e) if e.kind == ErrorKind::Stopped => stopped = Some(e),
+            Err(e) => {
+                record_failure(c, &out.join("cases").join(&c.id), &e)?;
+                failed.push(e);
+            }
+        }
     }
     let rows = write_summary(&study, out)?;
-    Ok(format!(
+    if let Some(e) = stopped {
+        return Err(e);
+    }
+    let line = format!(
         "{} cases run, {jobs} at a time, {skipped} already done; summary.csv has {rows} of {} cases",
-        pending.len(),
+        pending.len() - failed.len(),
         study.cases.len()
-    ))
+    );
+    match failed.first() {
+        None => Ok(line),
+        Some(first) => Err(Error {
+            // Bad input where every failure was the input's, ours where any was ours.
+            kind: if failed.iter().all(|e| e.kind == ErrorKind::Input) {
+                ErrorKind::Input
+            } else {
+                ErrorKind::Failure
+            },
+            message: format!(
+                "{} of {} cases failed, each named in {} with its message; \
+                 the first: {}; {line}",
+                failed.len(),
+                pending.len(),
+                out.join("failed.csv").display(),
+                first.message
+            ),
+        }),
+    }
+}
+
+/// A failed case's folder keeps what its command would have said, in failed.json (`id`,
+/// `overrides`, `exit_code`, `message`), until it runs again; failed.csv is made from these.
+fn record_failure(c: &Case, dir: &Path, e: &Error) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .map_err(|io| Error::failure(format!("{}: {io}", dir.display())))?;
+    let failure = serde_json::json!({
+        "id": c.id,
+        "overrides": overrides_json(c),
+        "exit_code": e.exit_code(),
+        "message": e.message,
+    });
+    let text = serde_json::to_string_pretty(&failure).map_err(|j| Error::failure(j.to_string()))?;
+    write_atomic(&dir.join(FAILED), text.as_bytes())
+}
+
+/// The file a failed case leaves in its folder.
+const FAILED: &str = "failed.json";
+
+fn overrides_json(c: &Case) -> serde_json::Map<String, Value> {
+    c.overrides
+        .iter()
+        .map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or(Value::Null)))
+        .collect()
 }
 
 /// Cases at once by default: one per core, fewer where the memory the largest pending case
@@ -342,7 +406,22 @@ fn default_jobs(study: &Study, pending: &[&&Case]) -> Result<usize> {
     Ok(cores.min(by_memory).max(1))
 }
 
+/// Run one case into `dir`; its error, if any, names the study file, the case and its
+/// overrides, however deep it arose (a plate the case's part outgrows, a numerical failure).
 fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
+    // What an earlier attempt left: this one's outcome replaces it.
+    let _ = std::fs::remove_file(dir.join(FAILED));
+    run_case_files(study, c, dir).map_err(|e| {
+        let label = study.case_label(c);
+        if e.message.starts_with(&study.case_name(c)) {
+            e
+        } else {
+            e.context(label)
+        }
+    })
+}
+
+fn run_case_files(study: &Study, c: &Case, dir: &Path) -> Result<()> {
     let s = study.scenario(c)?;
     // Messages name the case: its warnings on a terminal that many cases share, its refusal.
     let name = study.case_name(c);
@@ -361,17 +440,13 @@ fn run_case(study: &Study, c: &Case, dir: &Path) -> Result<()> {
     for w in warned.iter().chain(&after) {
         eprintln!("case {}: {}", c.id, w.line);
     }
-    let overrides: serde_json::Map<String, Value> = c
-        .overrides
-        .iter()
-        .map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or(Value::Null)))
-        .collect();
-    d.write_json("case.json", &serde_json::json!({"id": c.id, "overrides": overrides, "total_dwell_s": dwell.iter().sum::<f64>(), "dwell_count": dwell.iter().filter(|&&x| x > 0.0).count(), "arc_stops": cooling.arc_stops()}))?;
+    d.write_json("case.json", &serde_json::json!({"id": c.id, "overrides": overrides_json(c), "total_dwell_s": dwell.iter().sum::<f64>(), "dwell_count": dwell.iter().filter(|&&x| x > 0.0).count(), "arc_stops": cooling.arc_stops()}))?;
     d.finish("study case", s.to_json())?;
     Ok(())
 }
 
-/// summary.csv from every finished case: one row each.
+/// summary.csv from every finished case, one row each; failed.csv from every failed one (its
+/// overrides, exit code and message), removed where none failed. Returns summary.csv's rows.
 fn write_summary(study: &Study, out: &Path) -> Result<usize> {
     let keys: Vec<String> = {
         let mut k: Vec<String> = study
@@ -391,11 +466,33 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
     let read =
         |p: PathBuf| -> Option<Value> { serde_json::from_slice(&std::fs::read(p).ok()?).ok() };
     let mut rows = 0;
+    let mut failed = format!("case,{},exit_code,message\n", keys.join(","));
+    let mut failed_rows = 0;
     #[cfg(feature = "recording")]
     let mut tradeoff = Vec::new();
     for c in &study.cases {
         let dir = out.join("cases").join(&c.id);
+        let values: Vec<String> = keys
+            .iter()
+            .map(|k| {
+                c.overrides
+                    .iter()
+                    .find(|o| &o.0 == k)
+                    .map_or(String::new(), |o| o.1.to_string())
+            })
+            .collect();
         if !dir.join("manifest.json").is_file() {
+            if let Some(f) = read(dir.join(FAILED)) {
+                let _ = writeln!(
+                    failed,
+                    "{},{},{},{}",
+                    c.id,
+                    values.join(","),
+                    f["exit_code"],
+                    csv_field(f["message"].as_str().unwrap_or(""))
+                );
+                failed_rows += 1;
+            }
             continue;
         }
         let (plan, thermal, case) = (
@@ -406,15 +503,6 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
         let (Some(plan), Some(thermal), Some(case)) = (plan, thermal, case) else {
             continue;
         };
-        let values: Vec<String> = keys
-            .iter()
-            .map(|k| {
-                c.overrides
-                    .iter()
-                    .find(|o| &o.0 == k)
-                    .map_or(String::new(), |o| o.1.to_string())
-            })
-            .collect();
         let _ = writeln!(
             csv,
             "{},{},{},{:.2},{:.2},{},{:.2},{},{},{}",
@@ -441,11 +529,28 @@ fn write_summary(study: &Study, out: &Path) -> Result<usize> {
         });
     }
     write_atomic(&out.join("summary.csv"), csv.as_bytes())?;
+    let failed_csv = out.join("failed.csv");
+    if failed_rows > 0 {
+        write_atomic(&failed_csv, failed.as_bytes())?;
+    } else if failed_csv.is_file() {
+        std::fs::remove_file(&failed_csv)
+            .map_err(|e| Error::failure(format!("cannot remove {}: {e}", failed_csv.display())))?;
+    }
     #[cfg(feature = "recording")]
     if !tradeoff.is_empty() {
         crate::record::study_plots(&mut RunDir::create(out)?, &tradeoff)?;
     }
     Ok(rows)
+}
+
+/// A CSV field: quoted, its quotes doubled, where it holds a comma, a quote or a line break
+/// (RFC 4180); a message names values such as `[100.0, 100.0, 10.0]`.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
 }
 
 /// thermal.json's warnings as summary.csv holds them: their kinds, `;` between (empty where
