@@ -120,8 +120,8 @@ pub enum Command {
         /// Write a job-array script for a scheduler instead of running (`slurm`).
         #[arg(long)]
         emit: Option<String>,
-        /// Cases run at once; default: as many as this machine has cores and memory for
-        /// (the base scenario's estimate per case).
+        /// The most cases run at once (default: this machine's cores); each starts once its
+        /// memory estimate fits beside the running cases'.
         #[arg(long)]
         jobs: Option<usize>,
     },

@@ -20,7 +20,6 @@
 use crate::error::{Error, ErrorKind, Result};
 use crate::output::{RunDir, write_atomic};
 use crate::scenario::Scenario;
-use rayon::prelude::*;
 use serde_json::Value;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -283,21 +282,40 @@ pub fn run(
             case_keeps(&study.command, &s),
         )?;
     }
-    let jobs = match jobs {
-        Some(j) => j,
-        None => default_jobs(&study, &pending)?,
-    }
-    .min(pending.len().max(1));
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs)
-        .build()
-        .map_err(|e| Error::failure(e.to_string()))?;
-    let results: Vec<Result<()>> = pool.install(|| {
-        pending
-            .par_iter()
-            .map(|c| run_case(&study, c, &out.join("cases").join(&c.id)))
-            .collect()
+    let needs = case_memory(&study, &pending)?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let workers = jobs.unwrap_or(cores).min(pending.len()).max(1);
+    let budget = super::cost::available_memory().unwrap_or(f64::INFINITY);
+    let admission = Admission::new(&needs, budget, workers, cores);
+    let finished = std::sync::Mutex::new(Vec::with_capacity(pending.len()));
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                while let Some(taken) = admission.take() {
+                    let (k, threads) = (taken.case, taken.threads);
+                    let c = pending[k];
+                    let dir = out.join("cases").join(&c.id);
+                    // The case's own threads: its heat model's steps and its side-by-side runs
+                    // share them, not the cores the other cases hold.
+                    let r = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .map_err(|e| Error::failure(e.to_string()))
+                        .and_then(|pool| pool.install(|| run_case(&study, c, &dir)));
+                    if r.as_ref().is_err_and(|e| e.kind == ErrorKind::Stopped) {
+                        admission.stop();
+                    }
+                    admission.done(&taken);
+                    lock(&finished).push((k, r));
+                }
+            });
+        }
     });
+    let mut results = finished.into_inner().unwrap_or_else(|p| p.into_inner());
+    results.sort_by_key(|r| r.0);
+    let pending: Vec<&&Case> = results.iter().map(|r| pending[r.0]).collect();
+    let results: Vec<Result<()>> = results.into_iter().map(|r| r.1).collect();
+    let jobs = admission.most();
     // A case that fails is kept with its message and the others go on: one case of a night's
     // sweep that outgrows its plate or its memory must not cost the rest their summary. A stop
     // asked for (Ctrl-C from Python) stops the study, and is no case's failure.
@@ -318,7 +336,7 @@ pub fn run(
         return Err(e);
     }
     let line = format!(
-        "{} cases run, {jobs} at a time, {skipped} already done; summary.csv has {rows} of {} cases",
+        "{} cases run, up to {jobs} at a time, {skipped} already done; summary.csv has {rows} of {} cases",
         pending.len() - failed.len(),
         study.cases.len()
     );
@@ -368,13 +386,12 @@ fn overrides_json(c: &Case) -> serde_json::Map<String, Value> {
         .collect()
 }
 
-/// Cases at once by default: one per core, fewer where the memory the largest pending case
-/// needs (its plate-only estimate, with the copies its command keeps, ×2 for the part's metal
-/// and the process; or its plan's peak, where larger) would not fit that many. A sweep over
-/// `thermal.voxel_mm` or the part's size holds cases of very different sizes, so the base's
-/// own need (what was counted before) can let too many of the large ones run at once.
-fn default_jobs(study: &Study, pending: &[&&Case]) -> Result<usize> {
-    let mut per_case: f64 = 0.0;
+/// Each pending case's memory, as the cases at once are held to it: its plate-only estimate,
+/// with the copies its command keeps, ×2 for the part's metal and the process; or its plan's
+/// peak, where larger. A sweep over `thermal.voxel_mm` or the part's size holds cases of very
+/// different sizes, so no one case's need (the base's, or the largest's) sizes them all.
+fn case_memory(study: &Study, pending: &[&&Case]) -> Result<Vec<f64>> {
+    let mut needs = Vec::with_capacity(pending.len());
     // A mesh file's vertices once per file: the overrides seldom change it.
     let mut meshes: Vec<(std::path::PathBuf, usize)> = Vec::new();
     for c in pending {
@@ -396,14 +413,129 @@ fn default_jobs(study: &Study, pending: &[&&Case]) -> Result<usize> {
                 }
             }
         };
-        per_case = per_case
-            .max(heat)
-            .max(crate::pipeline::cost::plan_bytes(vertices));
+        needs.push(heat.max(crate::pipeline::cost::plan_bytes(vertices)));
     }
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let by_memory = super::cost::available_memory()
-        .map_or(cores, |avail| (avail / per_case.max(1.0)).floor() as usize);
-    Ok(cores.min(by_memory).max(1))
+    Ok(needs)
+}
+
+/// The cases handed to the workers as the memory and the cores allow. A worker takes the first
+/// waiting case whose need fits what the running cases leave of the memory, or any where none
+/// runs (a case too large alone is refused by its own checks); where a large case must wait,
+/// smaller ones after it run beside what is running. A case gets the free cores shared with
+/// the cases that could start beside it now: two side by side a core each on two cores, one
+/// that runs alone (none fits beside it, or none is left) all of them. Measured on two cores:
+/// two voxel cases side by side on two threads each ran slower than one after the other
+/// (docs/PERFORMANCE.md "Studies"). Each case's files are its own, whatever the order.
+struct Admission<'a> {
+    needs: &'a [f64],
+    workers: usize,
+    state: std::sync::Mutex<Queue>,
+    freed: std::sync::Condvar,
+}
+
+struct Queue {
+    /// Indices of the pending cases not yet taken, in order.
+    waiting: Vec<usize>,
+    /// The budget less the running cases' needs, bytes.
+    free: f64,
+    /// The cores the running cases do not hold.
+    cores: usize,
+    running: usize,
+    /// The most cases that ran at once.
+    most: usize,
+}
+
+/// A case handed to a worker, with the threads it runs on.
+struct Taken {
+    case: usize,
+    threads: usize,
+    /// Of them, the cores it holds from the others.
+    held: usize,
+}
+
+fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    // A case that panicked poisons nothing the others read: its result is never pushed.
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+impl<'a> Admission<'a> {
+    fn new(needs: &'a [f64], budget: f64, workers: usize, cores: usize) -> Self {
+        Self {
+            needs,
+            workers,
+            state: std::sync::Mutex::new(Queue {
+                waiting: (0..needs.len()).collect(),
+                free: budget,
+                cores,
+                running: 0,
+                most: 0,
+            }),
+            freed: std::sync::Condvar::new(),
+        }
+    }
+
+    /// The next case this worker runs, waiting while none fits; `None` once none is left.
+    fn take(&self) -> Option<Taken> {
+        let needs = self.needs;
+        let mut q = lock(&self.state);
+        loop {
+            if q.waiting.is_empty() {
+                return None;
+            }
+            let fits = q
+                .waiting
+                .iter()
+                .position(|&k| q.running == 0 || needs[k] <= q.free);
+            if let Some(at) = fits {
+                let k = q.waiting.remove(at);
+                q.free -= needs[k];
+                q.running += 1;
+                q.most = q.most.max(q.running);
+                // The cases that could start beside this one now, in order, as workers allow.
+                let mut free = q.free;
+                let beside = q
+                    .waiting
+                    .iter()
+                    .filter(|&&j| {
+                        let fits = needs[j] <= free;
+                        if fits {
+                            free -= needs[j];
+                        }
+                        fits
+                    })
+                    .count()
+                    .min(self.workers - q.running);
+                let threads = (q.cores / (1 + beside)).max(1);
+                // More workers than cores (`--jobs`): a case beyond them holds none.
+                let held = threads.min(q.cores);
+                q.cores -= held;
+                return Some(Taken {
+                    case: k,
+                    threads,
+                    held,
+                });
+            }
+            q = self.freed.wait(q).unwrap_or_else(|p| p.into_inner());
+        }
+    }
+
+    fn done(&self, taken: &Taken) {
+        let mut q = lock(&self.state);
+        q.free += self.needs[taken.case];
+        q.cores += taken.held;
+        q.running -= 1;
+        self.freed.notify_all();
+    }
+
+    /// A stop was asked for: no further case starts.
+    fn stop(&self) {
+        lock(&self.state).waiting.clear();
+        self.freed.notify_all();
+    }
+
+    fn most(&self) -> usize {
+        lock(&self.state).most
+    }
 }
 
 /// Run one case into `dir`; its error, if any, names the study file, the case and its
@@ -584,4 +716,53 @@ fn emit_slurm(study: &Path, out: &Path, cases: usize) -> Result<String> {
          (jid=$(sbatch --parsable {out_s}/study.slurm); sbatch --dependency=afterok:$jid {out_s}/study-merge.slurm)",
         out.join("study.slurm").display()
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn taken(a: &Admission) -> (usize, usize) {
+        let t = a.take().expect("a case fits");
+        (t.case, t.threads)
+    }
+
+    /// In 100 MB on two cores: a 90 MB case waits while a 50 MB one runs, the 50 MB case after
+    /// it runs beside, each of the two on one core; the large one then runs alone on both.
+    #[test]
+    fn a_large_case_waits_and_the_small_ones_after_it_run_beside() {
+        let needs = [50e6, 90e6, 50e6];
+        let a = Admission::new(&needs, 100e6, 2, 2);
+        let first = a.take().unwrap();
+        assert_eq!((first.case, first.threads), (0, 1));
+        let second = a.take().unwrap();
+        assert_eq!((second.case, second.threads), (2, 1));
+        a.done(&first);
+        a.done(&second);
+        assert_eq!(taken(&a), (1, 2));
+        assert!(a.take().is_none());
+        assert_eq!(a.most(), 2);
+    }
+
+    /// Where nothing fits beside it a case gets every core; where a case cannot fit alone it
+    /// still runs once nothing else does (its own checks refuse it); more workers than cores
+    /// give the extra cases a thread each.
+    #[test]
+    fn cores_go_to_the_cases_that_can_run() {
+        let needs = [80e6, 80e6];
+        let a = Admission::new(&needs, 100e6, 2, 2);
+        let first = a.take().unwrap();
+        assert_eq!((first.case, first.threads), (0, 2));
+        a.done(&first);
+        assert_eq!(taken(&a), (1, 2));
+
+        let needs = [500e6];
+        let a = Admission::new(&needs, 100e6, 2, 2);
+        assert_eq!(taken(&a), (0, 2));
+
+        let needs = [1e6; 4];
+        let a = Admission::new(&needs, 100e6, 4, 2);
+        let held: Vec<usize> = (0..4).map(|_| a.take().unwrap().held).collect();
+        assert_eq!(held, [1, 1, 0, 0]);
+    }
 }
