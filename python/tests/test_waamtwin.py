@@ -84,6 +84,25 @@ class Errors(unittest.TestCase):
         self.assertTrue(issubclass(waamtwin.SimulationError, RuntimeError))
 
 
+    def test_a_study_whose_case_fails_keeps_the_others(self):
+        # An R 60 cylinder outgrows the 80 mm plate once it is planned; the R 25 one runs.
+        with tempfile.TemporaryDirectory() as d:
+            base = Path(d, "base.toml")
+            base.write_text(
+                '[part]\nshape = "cylinder"\nradius_mm = 25.0\nheight_mm = 14.0\n'
+                "[thermal]\nplate_mm = [80.0, 80.0, 6.0]\n"
+                "[output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n"
+            )
+            study = {"base": str(base), "sweep": {"part.radius_mm": [25.0, 60.0]}}
+            with self.assertRaises(waamtwin.InputError) as e:
+                waamtwin.study(study)
+        self.assertIn("1 of 2 cases failed", str(e.exception))
+        r = e.exception.result
+        self.assertEqual(list(r.table("summary")["part.radius_mm"]), [25.0])
+        self.assertEqual(list(r.failed["part.radius_mm"]), [60.0])
+        self.assertIn("plate_mm", r.failed["message"][0])
+
+
 class LongRuns(unittest.TestCase):
     def test_other_threads_run_while_it_works_and_progress_is_told(self):
         ticks, stop = [0], threading.Event()

@@ -251,8 +251,14 @@ def _run(command, scenario, kwargs, allowed, progress, extra=()):
         source = _ScenarioFile(scenario, sections)
         summary = _native.run([command, str(source.path), "-o", str(out), *flags], progress)
     except (InputError, SimulationError) as e:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise (source.relabel(e) if source else e) from None
+        err = source.relabel(e) if source else e
+        if command == "study" and (out / "summary.csv").is_file():
+            # A study whose cases failed still wrote the rest: the error carries them, and the
+            # folder goes with that result (its summary and failed tables).
+            err.result = Result(command, str(err), out)
+        else:
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise err from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -313,7 +319,9 @@ def follow(scenario: Scenario, *, progress: Progress = None, **kwargs) -> Result
 
 def study(study: Scenario, *, progress: Progress = None, **kwargs) -> Result:
     """A what-if study: summary.csv and one folder per case (``waamtwin study``). ``study``
-    is the study's TOML (path, text or dict). Options: ``jobs``, ``shard`` ("I/N")."""
+    is the study's TOML (path, text or dict). Options: ``jobs``, ``shard`` ("I/N"). Where
+    cases fail the error raised carries the rest as ``e.result``: ``e.result.table("summary")``
+    the finished cases, ``e.result.failed`` the failed ones with their messages."""
     return _run("study", study, kwargs, ("jobs", "shard"), progress)
 
 

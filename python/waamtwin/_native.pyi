@@ -10,8 +10,13 @@ __version__: str
 class InputError(ValueError):
     """Bad input: a scenario, a file, a field or a value (the command's exit code 2)."""
 
+    # A study whose cases failed: what the others wrote (``waamtwin.Result``).
+    result: Any
+
 class SimulationError(RuntimeError):
     """A failure the input did not cause: a numerical breakdown, a full disk (exit code 1)."""
+
+    result: Any
 
 def run(argv: list[str], progress: Optional[Callable[[str, int, int], Any]] = None) -> str:
     """Run ``waamtwin ARGV...`` and return the line it prints."""

@@ -64,7 +64,7 @@ fn the_package_passes_its_tests() {
         "the package's tests failed{}:\n{said}",
         timed_out(&out.status)
     );
-    assert!(said.contains("Ran 7 tests"), "{said}");
+    assert!(said.contains("Ran 8 tests"), "{said}");
 
     // The notebooks: the GAMMA wall calibrated (it reads the measured builds) and a dome
     // dwelled. Each asserts what it shows; a failing cell fails run.py.
