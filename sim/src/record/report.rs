@@ -107,6 +107,66 @@ impl Sink for ReportSink {
     }
 }
 
+/// Points over the interpass limit by what they are laid on: each kind has its own remedy, and
+/// a dwell between revolutions is the remedy of one of them only.
+#[derive(Debug, Default, Clone, Copy)]
+struct OverLimit {
+    earlier: usize,
+    plate: usize,
+    just_laid: usize,
+}
+
+impl OverLimit {
+    fn count(scene: &Scene) -> Self {
+        let over = |on: thermal::Support| {
+            scene
+                .points
+                .iter()
+                .filter(|p| p.laid_on == on && p.preheat_c > scene.interpass_c)
+                .count()
+        };
+        Self {
+            earlier: over(thermal::Support::Deposit),
+            plate: over(thermal::Support::Plate),
+            just_laid: over(thermal::Support::JustLaid),
+        }
+    }
+
+    /// The evidence: the revolutions `runs` (`above` of `of`) over the limit, and each kind's
+    /// remedy.
+    fn text(self, runs: &str, above: usize, of: usize) -> String {
+        let mut text = format!(
+            "Revolutions whose hottest preheat passes the limit: {runs} ({above} of {of})."
+        );
+        if self.earlier > 0 {
+            text += &format!(
+                " {} points over it lie on earlier revolutions: a dwell before them lets what \
+                 they are laid on cool (`waamtwin dwell` plans them).",
+                self.earlier
+            );
+        }
+        if self.plate > 0 {
+            text += &format!(
+                " {} points over it lie on the plate, in the first revolution, which its own arc \
+                 has warmed: no dwell between revolutions comes before them, and the dwell \
+                 planner leaves the plate alone; a lower heat input (wire feed, travel speed), a \
+                 larger or a cooled plate would lower it.",
+                self.plate
+            );
+        }
+        if self.just_laid > 0 {
+            text += &format!(
+                " {} points over it lie on metal laid inside the torch's footprint when their \
+                 preheat is read (near a closing point, the arc's own heat): no dwell can help \
+                 there, only a closing strategy (dwell.json `closing_strategy`; see \
+                 docs/PHYSICS.md).",
+                self.just_laid
+            );
+        }
+        text
+    }
+}
+
 /// The verdict in one sentence, and the evidence under it.
 fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
     let risky: Vec<usize> = (0..scene.points.len())
@@ -140,12 +200,7 @@ fn verdict(scene: &Scene) -> (bool, String, Vec<String>) {
     };
     if !above.is_empty() {
         let runs = super::scene::ranges(&above);
-        evidence.push(format!(
-            "Revolutions whose hottest preheat passes the limit: {runs}. Near a closing point the \
-             metal beneath a point can be laid inside the torch's footprint when its preheat is \
-             read (the arc's own heat): no dwell can help there, only a closing strategy \
-             (dwell.json `closing_strategy`; see docs/PHYSICS.md)."
-        ));
+        evidence.push(OverLimit::count(scene).text(&runs, above.len(), scene.layers.len()));
     }
     // The process window (CTPP Eq.6): a deposit outside it is one the wire feed cannot lay as
     // planned, whatever the heat does.
@@ -309,6 +364,45 @@ fn escape(s: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+    use super::OverLimit;
+
+    /// A tube's first revolution warmed by its own arc is not called a closing point's, nor
+    /// told to dwell; a dome's layers are told to dwell, its apex a closing strategy.
+    #[test]
+    fn each_kind_of_point_over_the_limit_gets_its_own_remedy() {
+        let plate = OverLimit {
+            plate: 6,
+            ..OverLimit::default()
+        }
+        .text("0", 1, 43);
+        assert!(
+            plate.starts_with("Revolutions whose hottest preheat passes the limit: 0 (1 of 43).")
+        );
+        assert!(
+            plate.contains("6 points over it lie on the plate"),
+            "{plate}"
+        );
+        assert!(
+            !plate.contains("closing") && !plate.contains("waamtwin dwell"),
+            "{plate}"
+        );
+        let dome = OverLimit {
+            earlier: 3966,
+            just_laid: 25,
+            ..OverLimit::default()
+        }
+        .text("5–50", 46, 51);
+        assert!(
+            dome.contains("3966 points over it lie on earlier revolutions"),
+            "{dome}"
+        );
+        assert!(
+            dome.contains("25 points over it lie on metal laid inside"),
+            "{dome}"
+        );
+        assert!(!dome.contains("plate"), "{dome}");
+    }
+
     #[test]
     fn text_is_escaped() {
         assert_eq!(

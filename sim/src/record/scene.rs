@@ -31,6 +31,8 @@ pub struct PointRecord {
     /// Laid as part of a drop.
     pub in_drop: bool,
     pub risk: Option<&'static str>,
+    /// What its preheat is read on: the plate, an earlier revolution, or metal just laid.
+    pub laid_on: thermal::Support,
 }
 
 /// Per revolution.
@@ -189,6 +191,7 @@ impl Scene {
                 strikes_drop: matches!(sim.drop[i], Some(DropPart::Strikes { .. })),
                 in_drop: sim.drop[i].is_some(),
                 risk: risks[i].map(|k| k.as_str()),
+                laid_on: sim.result.support[i],
             })
             .collect();
         let frames = frames(sim);
