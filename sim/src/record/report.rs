@@ -135,8 +135,13 @@ impl OverLimit {
     /// The evidence: the revolutions `runs` (`above` of `of`) over the limit, and each kind's
     /// remedy.
     fn text(self, runs: &str, above: usize, of: usize) -> String {
+        let which = if above == 1 {
+            "revolution"
+        } else {
+            "revolutions"
+        };
         let mut text = format!(
-            "Revolutions whose hottest preheat passes the limit: {runs} ({above} of {of})."
+            "{above} of {of} revolutions pass the limit at their hottest preheat ({which} {runs})."
         );
         if self.earlier > 0 {
             text += &format!(
@@ -376,7 +381,10 @@ mod tests {
         }
         .text("0", 1, 43);
         assert!(
-            plate.starts_with("Revolutions whose hottest preheat passes the limit: 0 (1 of 43).")
+            plate.starts_with(
+                "1 of 43 revolutions pass the limit at their hottest preheat (revolution 0)."
+            ),
+            "{plate}"
         );
         assert!(
             plate.contains("6 points over it lie on the plate"),
@@ -392,6 +400,11 @@ mod tests {
             ..OverLimit::default()
         }
         .text("5–50", 46, 51);
+        assert!(
+            dome.starts_with("46 of 51 revolutions pass the limit"),
+            "{dome}"
+        );
+        assert!(dome.contains("(revolutions 5–50)."), "{dome}");
         assert!(
             dome.contains("3966 points over it lie on earlier revolutions"),
             "{dome}"
