@@ -83,7 +83,6 @@ class Errors(unittest.TestCase):
             waamtwin.plan(DOME, no_such_option=1)
         self.assertTrue(issubclass(waamtwin.SimulationError, RuntimeError))
 
-
     def test_a_study_whose_case_fails_keeps_the_others(self):
         # An R 60 cylinder outgrows the 80 mm plate once it is planned; the R 25 one runs.
         with tempfile.TemporaryDirectory() as d:

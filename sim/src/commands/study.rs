@@ -293,6 +293,12 @@ pub fn run(
             scope.spawn(|| {
                 while let Some(taken) = admission.take() {
                     let (k, threads) = (taken.case, taken.threads);
+                    // Its memory and cores go back however the case ends, a panic included (the
+                    // other workers would otherwise wait for them for ever).
+                    let _running = Running {
+                        admission: &admission,
+                        taken,
+                    };
                     let c = pending[k];
                     let dir = out.join("cases").join(&c.id);
                     // The case's own threads: its heat model's steps and its side-by-side runs
@@ -305,7 +311,6 @@ pub fn run(
                     if r.as_ref().is_err_and(|e| e.kind == ErrorKind::Stopped) {
                         admission.stop();
                     }
-                    admission.done(&taken);
                     lock(&finished).push((k, r));
                 }
             });
@@ -451,6 +456,18 @@ struct Taken {
     threads: usize,
     /// Of them, the cores it holds from the others.
     held: usize,
+}
+
+/// A case running: dropped, it hands its memory and cores back.
+struct Running<'s, 'a> {
+    admission: &'s Admission<'a>,
+    taken: Taken,
+}
+
+impl Drop for Running<'_, '_> {
+    fn drop(&mut self) {
+        self.admission.done(&self.taken);
+    }
 }
 
 fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
