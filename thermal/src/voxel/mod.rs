@@ -2235,25 +2235,40 @@ fn settle(deps: &[Deposit]) -> (Vec<f64>, Vec<f64>) {
 /// it grows H·L/W and falls behind a torch that climbs faster, as a strut does whose torch
 /// outruns its wire. A bead laid across the axis grows H whatever its length.
 ///
-/// The torch climbs from its own last deposit: one laid on an earlier pass (a plan's point on
-/// the revolution under it) is a bead of height H however its segment runs, and a segment
-/// under a tenth of H climbs nowhere (its direction is the path's jitter). Where a plan's
+/// The torch climbs from the metal under it: a deposit laid on an earlier pass (a plan's point
+/// on the revolution under it) is a bead of height H however its segment runs. Where a plan's
 /// generators converge (a square dome's seam on its flat top, its points a few hundredths of a
-/// millimetre apart and its step to the next revolution along its inward build direction),
-/// both were taken as climbs, and each revolution's metal settled further back along the
+/// millimetre apart, its step to the next revolution along its inward build direction), such
+/// steps were taken as climbs, and each revolution's metal settled further back along the
 /// axis, until beads were laid 20–46 mm behind their points, in the air (docs/PHYSICS.md
 /// "Points bunched where generators converge").
 fn column_growth(deps: &[Deposit], i: usize) -> Option<f64> {
     let d = &deps[i];
     let seg = sub(d.position, segment_start(deps, i));
     let len = norm(seg);
-    let own = d.support.is_none_or(|s| s + 1 == i);
-    (own && len >= MIN_CLIMB * d.height && dot(seg, d.axis).abs() > 0.9 * len)
+    (len > 1e-12 && dot(seg, d.axis).abs() > 0.9 * len && climbs_from_support(deps, i))
         .then(|| d.height * len / d.width)
 }
 
-/// The shortest segment, in bead heights, that is taken as a torch climbing along its axis.
-const MIN_CLIMB: f64 = 0.1;
+/// Whether deposit i's torch reached it from its support along a straight climb: the path
+/// between them no longer than twice their distance and a bead width, as a strut's is (its
+/// support the deposit before it, or a few back where it is logged in steps under a layer),
+/// where a revolution laid on the one under it went round the part in between. Walks back at
+/// most until the path passes that length.
+fn climbs_from_support(deps: &[Deposit], i: usize) -> bool {
+    let Some(s) = deps[i].support else {
+        return true;
+    };
+    let limit = 2.0 * norm(sub(deps[i].position, deps[s].position)) + deps[i].width;
+    let mut path = 0.0;
+    for k in (s + 1..=i).rev() {
+        path += norm(sub(deps[k].position, segment_start(deps, k)));
+        if path > limit {
+            return false;
+        }
+    }
+    true
+}
 
 /// Each deposit's distance along the path from the first, m: the sum of the straight
 /// segments between their points (the first at 0), a travel with the arc off included, as the
@@ -2515,43 +2530,42 @@ mod tests {
         }
     }
 
-    /// Two generators a few hundredths of a millimetre apart, ten revolutions high, each point
-    /// laid on its own generator's point a revolution down (a plan's support) and the step to
-    /// the next revolution along the torch's axis: every bead lies on the one beneath, its
-    /// metal settled at its path point (sink 0). Taken as a torch climbing from its last
-    /// deposit, each revolution's metal settled 1.2 mm further back (12 mm by the tenth).
+    /// Ten revolutions of three points, each laid on its own generator's point a revolution
+    /// down (a plan's support): out 50 mm and back to 0.03 mm from where the revolution began,
+    /// the step to the next one along the torch's axis. Every bead lies on the one beneath,
+    /// its metal settled at its path point (sink 0). Taken as a torch climbing, each
+    /// revolution's metal settled 1.2 mm further back (12 mm by the tenth): the path from the
+    /// support goes out and back, no straight climb.
     #[test]
     fn a_plans_revolution_stepping_along_its_axis_is_no_column() {
-        let deps: Vec<Deposit> = (0..20usize)
+        let deps: Vec<Deposit> = (0..30usize)
             .map(|k| Deposit {
-                position: [3e-5 * (k % 2) as f64, 0.0, 2e-3 * (k / 2 + 1) as f64],
+                position: [[0.0, 5e-2, 3e-5][k % 3], 0.0, 2e-3 * (k / 3 + 1) as f64],
                 time: (k + 1) as f64,
                 arc_time: 1.0,
                 heat: 500.0,
                 width: 5e-3,
                 height: 2e-3,
                 axis: [0.0, 0.0, 1.0],
-                support: k.checked_sub(2),
+                support: k.checked_sub(3),
                 start: None,
                 drop: None,
             })
             .collect();
         let (below, sink) = settle(&deps);
         assert!(sink.iter().all(|&s| s < 1e-12), "{sink:?}");
-        assert!(
-            below[2..].iter().all(|&b| (b - 2e-3).abs() < 1e-9),
-            "{below:?}"
-        );
-        // Its own last deposit under it, the same step is a strut's climb.
-        let strut: Vec<Deposit> = deps
-            .iter()
-            .enumerate()
-            .map(|(k, d)| Deposit {
-                support: k.checked_sub(1),
-                ..*d
+        assert!(below.iter().all(|&b| (b - 2e-3).abs() < 1e-9), "{below:?}");
+        assert!(column_growth(&deps, 3).is_none());
+        // A strut logged in steps under a layer lies on a deposit a few back, straight below:
+        // a climb.
+        let strut: Vec<Deposit> = (0..20usize)
+            .map(|k| Deposit {
+                position: [0.0, 0.0, 0.5e-3 * (k + 1) as f64],
+                support: k.checked_sub(3),
+                ..deps[0]
             })
             .collect();
-        assert!(column_growth(&strut, 2).is_some() && column_growth(&deps, 2).is_none());
+        assert!((3..20).all(|k| column_growth(&strut, k).is_some()));
     }
 
     /// A strut whose torch climbs faster than its wire feeds it (beads 4 mm wide and 2 mm high,
