@@ -318,15 +318,14 @@ pub fn run(
     });
     let mut results = finished.into_inner().unwrap_or_else(|p| p.into_inner());
     results.sort_by_key(|r| r.0);
-    let pending: Vec<&&Case> = results.iter().map(|r| pending[r.0]).collect();
-    let results: Vec<Result<()>> = results.into_iter().map(|r| r.1).collect();
-    let jobs = admission.most();
+    let (ran, jobs) = (results.len(), admission.most());
     // A case that fails is kept with its message and the others go on: one case of a night's
     // sweep that outgrows its plate or its memory must not cost the rest their summary. A stop
     // asked for (Ctrl-C from Python) stops the study, and is no case's failure.
     let mut stopped = None;
     let mut failed = Vec::new();
-    for (c, r) in pending.iter().zip(results) {
+    for (k, r) in results {
+        let c = pending[k];
         match r {
             Ok(()) => {}
             Err(e) if e.kind == ErrorKind::Stopped => stopped = Some(e),
@@ -342,7 +341,7 @@ pub fn run(
     }
     let line = format!(
         "{} cases run, up to {jobs} at a time, {skipped} already done; summary.csv has {rows} of {} cases",
-        pending.len() - failed.len(),
+        ran - failed.len(),
         study.cases.len()
     );
     match failed.first() {
@@ -358,7 +357,7 @@ pub fn run(
                 "{} of {} cases failed, each named in {} with its message; \
                  the first: {}; {line}",
                 failed.len(),
-                pending.len(),
+                ran,
                 out.join("failed.csv").display(),
                 first.message
             ),
