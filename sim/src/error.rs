@@ -90,6 +90,7 @@ impl From<crate::pipeline::Error> for Error {
     fn from(e: crate::pipeline::Error) -> Self {
         match e {
             crate::pipeline::Error::Plan(_)
+            | crate::pipeline::Error::Unseated(_)
             | crate::pipeline::Error::Measured(_)
             | crate::pipeline::Error::Invalid(_) => Error::input(e.to_string()),
             crate::pipeline::Error::Thermal(t) => t.into(),

@@ -89,16 +89,15 @@ pub fn part_from_mesh(mesh: TriMesh, lower: LowerLoop, name: &str) -> Result<Par
 }
 
 pub fn load_part(spec: &PartSpec) -> Result<Part> {
-    match &spec.source {
-        PartSource::Mesh(path) => part_from_mesh(
-            read_mesh_file(path)?,
-            spec.lower,
-            &path.display().to_string(),
-        ),
-        PartSource::Shape { shape, edge_mm } => part_from_mesh(
-            shape.mesh(*edge_mm),
-            spec.lower,
-            &format!("shape \"{}\"", shape.name()),
-        ),
+    let (mut mesh, name) = match &spec.source {
+        PartSource::Mesh(path) => (read_mesh_file(path)?, path.display().to_string()),
+        PartSource::Shape { shape, edge_mm } => {
+            (shape.mesh(*edge_mm), format!("shape \"{}\"", shape.name()))
+        }
+    };
+    let (k, o) = (spec.mm_per_unit, nalgebra::Vector3::from(spec.offset_mm));
+    if k != 1.0 || o != nalgebra::Vector3::zeros() {
+        mesh.map_positions(|p| nalgebra::Point3::from(p.coords * k + o));
     }
+    part_from_mesh(mesh, spec.lower, &name)
 }

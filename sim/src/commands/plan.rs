@@ -336,6 +336,7 @@ fn path_csv(b: &Build) -> String {
 /// The planar baseline: slices every h, the local deposit each asks for, and the top remainder.
 fn write_planar(dir: &mut RunDir, s: &Scenario, part: &Part) -> Result<String> {
     let p = s.plan_params();
+    crate::pipeline::seat::check(part, p.deposit_mm).map_err(crate::pipeline::Error::Unseated)?;
     let sl = planar::slice(part, p.deposit_mm);
     let all: Vec<f64> = sl.all_deposits().collect();
     let (lo, hi) = range(all.iter().copied());

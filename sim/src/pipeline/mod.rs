@@ -62,6 +62,7 @@ pub mod program;
 pub mod replay;
 pub mod resolution;
 pub mod risk;
+pub mod seat;
 pub mod skeleton;
 pub mod twin;
 
@@ -107,6 +108,8 @@ pub enum Error {
     /// The planner's verdict on the part (branching, too short, …): the user's input, with
     /// its evidence (which generator, which branch) for a caller to act on.
     Plan(planner::plan::PlanError),
+    /// The part does not stand on the plate ([`seat::check`]): the user's input.
+    Unseated(seat::Unseated),
     /// A parameter outside its documented range ([`params::Params::check`]): the caller's
     /// input, naming the key in the interface's units.
     Invalid(params::Invalid),
@@ -122,6 +125,7 @@ impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::Plan(e) => write!(f, "plan: {e}"),
+            Error::Unseated(e) => e.fmt(f),
             Error::Invalid(e) => write!(f, "{e}"),
             Error::Thermal(e) => write!(f, "thermal: {e}"),
             Error::Measured(e) => f.write_str(e),
@@ -164,6 +168,7 @@ pub fn plan(part: &Part, params: &PlanParams) -> Result<Plan, Error> {
 pub fn build(part: &Part, planning: &PlanParams, params: Params) -> Result<Build, Error> {
     params.check().map_err(Error::Invalid)?;
     params::planning(planning).map_err(Error::Invalid)?;
+    seat::check(part, planning.deposit_mm).map_err(Error::Unseated)?;
     Ok(Build::new(plan(part, planning)?, params))
 }
 

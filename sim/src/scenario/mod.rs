@@ -46,7 +46,14 @@ pub enum PartSource {
 pub struct PartSpec {
     pub source: PartSource,
     pub lower: LowerLoop,
+    /// Millimetres a unit of the mesh file (`[part] mesh_unit`; 1 for a library shape).
+    pub mm_per_unit: f64,
+    /// Added to every vertex once scaled (`[part] offset_mm`), mm.
+    pub offset_mm: [f64; 3],
 }
+
+/// The units a mesh file may be drawn in (`[part] mesh_unit`), with their millimetres.
+pub const MESH_UNITS: [(&str, f64); 4] = [("mm", 1.0), ("cm", 10.0), ("m", 1000.0), ("in", 25.4)];
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlannerSettings {
@@ -759,7 +766,42 @@ fn part_spec(p: &RawPart, c: &Checker, base: &Path) -> Result<PartSpec> {
             "no edge_mm with a mesh file (it is meshed already)",
         ));
     }
-    Ok(PartSpec { source, lower })
+    let mm_per_unit = match (&p.mesh_unit, &p.mesh) {
+        (None, _) => 1.0,
+        (Some(u), Some(_)) => MESH_UNITS
+            .iter()
+            .find(|(name, _)| name == u)
+            .map(|&(_, mm)| mm)
+            .ok_or_else(|| {
+                c.fail(
+                    "part",
+                    "mesh_unit",
+                    format!("\"{u}\""),
+                    "\"mm\", \"cm\", \"m\" or \"in\"",
+                )
+            })?,
+        (Some(u), None) => {
+            return Err(c.fail(
+                "part",
+                "mesh_unit",
+                format!("\"{u}\""),
+                "no mesh_unit with a library shape (its sizes are in mm)",
+            ));
+        }
+    };
+    let offset_mm = p.offset_mm.unwrap_or([0.0; 3]);
+    if let Some(v) = offset_mm
+        .iter()
+        .find(|v| !(v.is_finite() && v.abs() <= 1e5))
+    {
+        return Err(c.fail("part", "offset_mm", v, "three numbers within ±100000 mm"));
+    }
+    Ok(PartSpec {
+        source,
+        lower,
+        mm_per_unit,
+        offset_mm,
+    })
 }
 
 /// A library shape from `[part]`; its parameters are checked by the planner's shape table.

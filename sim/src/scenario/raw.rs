@@ -150,6 +150,12 @@ pub struct RawPart {
     /// Which boundary loop is on the substrate; absent: the lowest one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lower_loop: Option<usize>,
+    /// The unit of the mesh file's coordinates (an STL carries none); absent: "mm".
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh_unit: Option<String>,
+    /// Added to every vertex (after `mesh_unit`), mm; absent: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub offset_mm: Option<[f64; 3]>,
 }
 
 impl RawPart {
