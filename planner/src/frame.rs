@@ -1,6 +1,6 @@
 //! The tool frame a robot follows at each path point: the tool's approach axis z from the torch
 //! down to the deposit (minus the tool axis of [`crate::orientation`]), x along the direction of
-//! travel made square to it, y = z × x; as a rotation and a unit quaternion (w, x, y, z), the
+//! travel made square to it (turning no faster than the wrist's budget), y = z × x; as a rotation and a unit quaternion (w, x, y, z), the
 //! form robot programs take. Any path with tool axes serves, an imported one included.
 
 use crate::geometry::grid::PointGrid;
@@ -51,21 +51,58 @@ pub fn travel(points: &[Point3<f64>], i: usize) -> Vector3<f64> {
     }
 }
 
+/// The direction of travel at point i as the torch sees it, square to its axis `z`: the chord
+/// between the points before and after it made square to z, widened until that is at least
+/// [`MIN_CHORD_MM`] long. [`travel`]'s chord is not enough: where a plan steps from one
+/// revolution to the next along a tilted tool (a flat top whose build direction lies almost
+/// level), its chord runs nearly along z and what is left square to it is the points' jitter,
+/// which turned the frame's x through up to 179° in a move of hundredths of a millimetre (a
+/// robot's wrist flicked round at a standstill).
+fn travel_across(points: &[Point3<f64>], i: usize, z: &Vector3<f64>) -> Vector3<f64> {
+    let n = points.len();
+    let mut k = 1;
+    loop {
+        let d = points[(i + k).min(n - 1)] - points[i.saturating_sub(k)];
+        let across = d - z * d.dot(z);
+        if across.norm() >= MIN_CHORD_MM || k >= n {
+            return across;
+        }
+        k += 1;
+    }
+}
+
+/// The fastest the frame's x may turn about the tool axis along the path, degrees per mm: the
+/// wrist's budget of [`Torch::default`]. The torch is round, so where x points about its axis
+/// is the wrist's concern alone; where the direction of travel swings faster (the last turns
+/// round a closing point, a few hundredths of a millimetre across, or a path doubling back) x
+/// follows it at this rate instead of spinning the wrist at a standstill.
+pub const ROLL_RATE_DEG_MM: f64 = 30.0;
+
 /// The frames of `points` with tool axes `tools` (unit, from the deposit to the torch): x the
-/// direction of travel ([`travel`]) made square to z, or, where the path stands still or runs
-/// along the tool, the last such x.
+/// direction of travel square to z ([`travel_across`]), turned from the x before it by at most
+/// [`ROLL_RATE_DEG_MM`] times the move; where the path stands still or runs along the tool,
+/// the last such x.
 pub fn frames(points: &[Point3<f64>], tools: &[Vector3<f64>]) -> Vec<Frame> {
     let n = points.len();
-    let mut last_x = Vector3::x();
+    let mut last_x: Option<Vector3<f64>> = None;
     (0..n)
         .map(|i| {
             let z = -tools[i].normalize();
-            let travel = travel(points, i);
-            let x = (travel - z * travel.dot(&z))
-                .try_normalize(1e-9)
-                .or_else(|| (last_x - z * last_x.dot(&z)).try_normalize(1e-9))
-                .unwrap_or_else(|| z.cross(&Vector3::y()).normalize());
-            last_x = x;
+            let want = travel_across(points, i, &z).try_normalize(1e-9);
+            let before = last_x.and_then(|x| (x - z * x.dot(&z)).try_normalize(1e-9));
+            let x = match (want, before) {
+                (Some(w), Some(b)) => {
+                    let most = (ROLL_RATE_DEG_MM * (points[i] - points[i - 1]).norm()).to_radians();
+                    turned_toward(b, w, &z, most)
+                }
+                (Some(w), None) => w,
+                (None, Some(b)) => b,
+                (None, None) => z
+                    .cross(&Vector3::y())
+                    .try_normalize(1e-9)
+                    .unwrap_or_else(|| z.cross(&Vector3::x()).normalize()),
+            };
+            last_x = Some(x);
             let y = z.cross(&x);
             Frame {
                 position: points[i],
@@ -73,6 +110,21 @@ pub fn frames(points: &[Point3<f64>], tools: &[Vector3<f64>]) -> Vec<Frame> {
             }
         })
         .collect()
+}
+
+/// `from` turned about `z` toward `to` (both unit and square to z) by at most `most` radians.
+fn turned_toward(
+    from: Vector3<f64>,
+    to: Vector3<f64>,
+    z: &Vector3<f64>,
+    most: f64,
+) -> Vector3<f64> {
+    let angle = z.dot(&from.cross(&to)).atan2(from.dot(&to));
+    if angle.abs() <= most {
+        return to;
+    }
+    let a = most.copysign(angle);
+    from * a.cos() + z.cross(&from) * a.sin()
 }
 
 /// How the torch stands on the build direction: Chalvin's two tilts and the fastest the tool may
@@ -349,5 +401,53 @@ mod tests {
             let r = Rotation3::from_euler_angles(cc, bb, aa);
             assert!((r.matrix() - m).norm() < 1e-12);
         }
+    }
+
+    /// Path points 4345–4362 of a superellipsoid "square dome" (|x|⁴ + |y|⁴ + |z|⁴ = 40⁴, from
+    /// an STL) on its flat top: the torch lies almost level, the step to the next revolution
+    /// (4351 → 4352) runs along it, and points 4352–4356 sit hundredths of a millimetre apart.
+    /// The frame's x never turns faster than [`ROLL_RATE_DEG_MM`] plus the tool's own turn; x
+    /// taken from the chord alone turned 179° in the 0.007 mm move to 4354.
+    #[test]
+    fn the_frame_does_not_spin_where_points_bunch_along_a_level_torch() {
+        let rows = [
+            [5.5369, -1.4175, 39.9918, -0.999906, 0.013181, 0.003740],
+            [5.4979, -1.4076, 39.9919, -0.999952, 0.009105, 0.003714],
+            [5.4582, -1.3974, 39.9919, -0.999978, 0.005507, 0.003687],
+            [5.6056, 0.0000, 39.9917, -0.745024, -0.667030, 0.003059],
+            [5.5900, 0.0000, 39.9917, -0.739558, -0.673086, 0.003030],
+            [5.5758, 0.0000, 39.9917, -0.736151, -0.676811, 0.003008],
+            [5.5622, 0.0000, 39.9918, -0.740930, -0.671576, 0.003028],
+            [3.8234, 0.0000, 39.9943, -0.997102, 0.076027, 0.002798],
+            [3.8315, 0.0000, 39.9943, -0.996772, 0.080232, 0.002797],
+            [3.8382, 0.0000, 39.9943, -0.996481, 0.083768, 0.002797],
+            [3.8455, 0.0000, 39.9943, -0.996156, 0.087557, 0.002796],
+            [3.8534, 0.0000, 39.9943, -0.995785, 0.091675, 0.002795],
+            [3.7508, 0.9603, 39.9944, -0.997395, -0.072069, 0.002933],
+            [3.7751, 0.9665, 39.9944, -0.998255, -0.058976, 0.002935],
+            [3.7994, 0.9727, 39.9944, -0.998943, -0.045878, 0.002938],
+            [3.8259, 0.9795, 39.9943, -0.999498, -0.031551, 0.002940],
+            [3.8609, 0.9884, 39.9943, -0.999916, -0.012649, 0.002944],
+            [3.8995, 0.9983, 39.9942, -0.999433, -0.033538, 0.002957],
+        ];
+        let pts: Vec<Point3<f64>> = rows.iter().map(|r| Point3::new(r[0], r[1], r[2])).collect();
+        let tools: Vec<Vector3<f64>> = rows
+            .iter()
+            .map(|r| Vector3::new(r[3], r[4], r[5]).normalize())
+            .collect();
+        let f = frames(&pts, &tools);
+        for i in 1..f.len() {
+            let x = |k: usize| f[k].rotation.matrix().column(0).into_owned();
+            let turn = x(i).angle(&x(i - 1)).to_degrees();
+            let tilt = tools[i].angle(&tools[i - 1]).to_degrees();
+            let most = ROLL_RATE_DEG_MM * (pts[i] - pts[i - 1]).norm() + tilt + 1e-9;
+            assert!(
+                turn <= most,
+                "point {}: x turned {turn:.1}° for {most:.1}°",
+                4345 + i
+            );
+        }
+        // Where the travel is clear of the tool, x is the travel: 4357 → 4362 runs along +y.
+        assert!(f[15].rotation.matrix().column(0).y > 0.9);
     }
 }
