@@ -338,13 +338,17 @@ def export(
     pivot_mm=None,
     part_offset_mm=None,
     tilt_limits_deg=None,
+    min_move_mm=None,
 ) -> str:
     """The machine program of a planned run (a :class:`Result` of plan, simulate or dwell, or
     its folder): program.json, .mod (ABB RAPID), .src (KUKA KRL) or .nc (G-code), written
     beside its path.csv (``waamtwin export``); returns the command's line. ``format``: "json",
-    "rapid", "krl" or "gcode"."""
+    "rapid", "krl" or "gcode"; ``min_move_mm``: the shortest move kept (default 0.1; 0 keeps
+    every path point)."""
     folder = run.path_of("") if isinstance(run, Result) else Path(run)
     flags = ["--format", format]
+    if min_move_mm is not None:
+        flags += ["--min-move-mm", str(float(min_move_mm))]
     for key, value in (
         ("pivot_mm", pivot_mm),
         ("part_offset_mm", part_offset_mm),

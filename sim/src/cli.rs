@@ -150,6 +150,11 @@ pub enum Command {
         /// G-code: the tilt A's limits, degrees.
         #[arg(long, value_delimiter = ',', num_args = 1, default_values_t = [-120.0, 120.0], allow_hyphen_values = true)]
         tilt_limits_deg: Vec<f64>,
+        /// The shortest move kept, mm: a path point closer than this to the move before is
+        /// merged into the next (unless the arc is struck, put out or burns there, or a dwell
+        /// waits before it); 0 keeps every point.
+        #[arg(long, default_value_t = crate::commands::export::MIN_MOVE_MM)]
+        min_move_mm: f64,
     },
     /// Skeleton arc AM of an OBJ skeleton, drop by drop, closed and open loop: drops.csv,
     /// loops.csv, path.csv, skeleton.json, solidification.png, standoff.png.

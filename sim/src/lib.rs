@@ -115,9 +115,10 @@ pub fn execute(cli: cli::Cli) -> Result<String> {
             pivot_mm,
             part_offset_mm,
             tilt_limits_deg,
+            min_move_mm,
         } => {
             let table = commands::export::table(&pivot_mm, &part_offset_mm, &tilt_limits_deg)?;
-            commands::export::run(&dir, format, &table)
+            commands::export::run(&dir, format, &table, min_move_mm)
         }
         Command::Skeleton { scenario, out } => commands::skeleton::run(&scenario, &out),
         Command::Demo { out } => {

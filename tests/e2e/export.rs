@@ -1,5 +1,6 @@
 //! `waamtwin export`: the machine programs of a dwelled dome, parsed back: one move per path
-//! point at its position (1e-6 mm) and tool frame (1e-6 rad), the arc struck once at the start
+//! point (`--min-move-mm 0`; by default the moves under 0.1 mm merged) at its position (1e-6
+//! mm) and tool frame (1e-6 rad), the arc struck once at the start
 //! and once after each arc stop the plan made; the G-code's axes through the table's kinematics;
 //! a layered tube path struck once per bead.
 
@@ -56,8 +57,17 @@ fn programs_parse_back_to_the_path() {
     );
     let (expected, stops) = planned(&out);
     assert!(stops > 1);
+    short_moves_merge(&out, &expected, 1 + stops);
+    // Every point a move from here on.
     for format in ["json", "rapid", "krl"] {
-        let o = waamtwin(&["export", out.to_str().unwrap(), "--format", format]);
+        let o = waamtwin(&[
+            "export",
+            out.to_str().unwrap(),
+            "--format",
+            format,
+            "--min-move-mm",
+            "0",
+        ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
     gcode_parses_back(&out, &expected, 1 + stops);
@@ -117,6 +127,54 @@ fn programs_parse_back_to_the_path() {
     assert_eq!(krl.matches("$OUT[1] = FALSE").count(), 1 + stops);
 }
 
+/// By default a move under 0.1 mm from the move kept before it is merged into the next: the
+/// program's moves are path points (`i`) at their planned frames, every move but the last at
+/// least 0.1 mm, every point dropped within 0.1 mm of the one kept before it, and the arc still
+/// struck once per bead (a point where it is struck is never dropped).
+fn short_moves_merge(out: &std::path::Path, expected: &[Frame], beads: usize) {
+    let o = waamtwin(&["export", out.to_str().unwrap(), "--format", "json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("program.json")).unwrap()).unwrap();
+    let moves = j["moves"].as_array().unwrap();
+    let kept: Vec<usize> = moves
+        .iter()
+        .map(|m| m["i"].as_u64().unwrap() as usize)
+        .collect();
+    let merged = expected.len() - kept.len();
+    assert!(merged > 0, "the dome's closing point bunches its points");
+    let line = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        line.contains(&format!("({merged} path points under 0.1 mm")),
+        "{line}"
+    );
+    assert_eq!(j["arc_strikes"].as_u64().unwrap() as usize, beads);
+    assert_eq!((kept[0], *kept.last().unwrap()), (0, expected.len() - 1));
+    for (w, pair) in kept.windows(2).enumerate() {
+        let (a, b) = (expected[pair[0]].position, expected[pair[1]].position);
+        if pair[1] + 1 < expected.len() {
+            assert!(
+                (b - a).norm() >= 0.1,
+                "move {} is {} mm",
+                w + 1,
+                (b - a).norm()
+            );
+        }
+        for dropped in &expected[pair[0] + 1..pair[1]] {
+            assert!((dropped.position - a).norm() < 0.1);
+        }
+    }
+    for (m, &i) in moves.iter().zip(&kept) {
+        let p: Vec<f64> = m["position_mm"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert!((Vector3::new(p[0], p[1], p[2]) - expected[i].position.coords).norm() < 1e-6);
+    }
+}
+
 /// The G-code of a tilt-rotary table with its pivot off the origin and the part raised on the
 /// table: every G0/G1's axes taken back through the table's kinematics, written here apart from
 /// the exporter's (m = P + Rx(A)·Rz(C)·(p + o), the torch along the machine's +Z), give the
@@ -132,6 +190,8 @@ fn gcode_parses_back(out: &std::path::Path, expected: &[Frame], beads: usize) {
         "250,-40,-300",
         "--part-offset-mm",
         "0,0,45",
+        "--min-move-mm",
+        "0",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let g = std::fs::read_to_string(out.join("program.nc")).unwrap();

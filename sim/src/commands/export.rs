@@ -6,7 +6,7 @@
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
 use crate::pipeline::program::program;
-pub use crate::pipeline::program::{Arc, Format, Move, moves};
+pub use crate::pipeline::program::{Arc, Format, MIN_MOVE_MM, Move, merge_short, moves};
 use planner::table::Table;
 use std::path::Path;
 
@@ -36,7 +36,12 @@ pub fn table(pivot: &[f64], offset: &[f64], tilt: &[f64]) -> Result<Table> {
     })
 }
 
-pub fn run(dir: &Path, format: Format, table: &Table) -> Result<String> {
+pub fn run(dir: &Path, format: Format, table: &Table, min_move_mm: f64) -> Result<String> {
+    if !(min_move_mm.is_finite() && (0.0..=10.0).contains(&min_move_mm)) {
+        return Err(Error::input(format!(
+            "--min-move-mm {min_move_mm}; expected a length in [0, 10] mm (0 keeps every point)"
+        )));
+    }
     let file = dir.join("path.csv");
     let text = std::fs::read_to_string(&file).map_err(|e| {
         Error::input(format!(
@@ -44,12 +49,18 @@ pub fn run(dir: &Path, format: Format, table: &Table) -> Result<String> {
             file.display()
         ))
     })?;
-    let moves = moves(&text, &file.display().to_string())?;
+    let (moves, merged) = merge_short(moves(&text, &file.display().to_string())?, min_move_mm);
     let (name, body) = program(&moves, format, table)?;
     write_atomic(&dir.join(name), body.as_bytes())?;
     let strikes = moves.iter().filter(|m| m.arc != Arc::On).count();
+    let merged = match merged {
+        0 => String::new(),
+        k => format!(
+            " ({k} path points under {min_move_mm} mm from the move before merged into the next)"
+        ),
+    };
     Ok(format!(
-        "{}: {} moves, the arc struck {strikes} times",
+        "{}: {} moves{merged}, the arc struck {strikes} times",
         dir.join(name).display(),
         moves.len()
     ))

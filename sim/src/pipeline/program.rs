@@ -55,6 +55,8 @@ pub enum Arc {
 /// One linear move: the frame at the path point and how it is reached.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Move {
+    /// The path point's index in path.csv (0-based).
+    pub point: usize,
     pub frame: Frame,
     pub wfs_m_min: f64,
     pub travel_mm_s: f64,
@@ -174,7 +176,9 @@ pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
     Ok(frames(&points, &tools)
         .into_iter()
         .zip(rows)
-        .map(|(frame, (wfs, travel, dwell, arc, burn))| Move {
+        .enumerate()
+        .map(|(point, (frame, (wfs, travel, dwell, arc, burn)))| Move {
+            point,
             frame,
             wfs_m_min: wfs,
             travel_mm_s: travel,
@@ -185,13 +189,40 @@ pub fn moves(text: &str, file: &str) -> Result<Vec<Move>> {
         .collect())
 }
 
+/// The shortest move a program keeps by default, mm (`waamtwin export --min-move-mm`). Where a
+/// plan's generators converge (round a closing point, the inside of a bent tube, the lines a
+/// square dome's generators bunch on) its points lie hundredths of a millimetre apart: half the
+/// quarter torus's 10 744 moves are under 0.1 mm, a few milliseconds each at 10 mm/s, fewer than
+/// a controller's look-ahead can plan at speed (the robot slows down or stops there while the
+/// arc burns on). A tenth of a millimetre is a fiftieth of the bead's width.
+pub const MIN_MOVE_MM: f64 = 0.1;
+
+/// `moves` with every move shorter than `min_mm` from the move kept before it merged into the
+/// next (its point dropped, the next move laying both), unless something happens there: the arc
+/// struck, put out or burning, a dwell before it. The first and the last move are kept. Returns
+/// the moves kept and how many were merged.
+pub fn merge_short(moves: Vec<Move>, min_mm: f64) -> (Vec<Move>, usize) {
+    let n = moves.len();
+    let mut kept: Vec<Move> = Vec::with_capacity(n);
+    for (k, m) in moves.into_iter().enumerate() {
+        let eventful = m.arc != Arc::On || m.dwell_s > 0.0 || m.burn_s > 0.0;
+        let short = kept
+            .last()
+            .is_some_and(|b| (m.frame.position - b.frame.position).norm() < min_mm);
+        if !short || eventful || k + 1 == n {
+            kept.push(m);
+        }
+    }
+    let merged = n - kept.len();
+    (kept, merged)
+}
+
 fn json_program(moves: &[Move]) -> String {
     let m: Vec<_> = moves
         .iter()
-        .enumerate()
-        .map(|(i, m)| {
+        .map(|m| {
             let p = m.frame.position;
-            json!({"i": i, "position_mm": [p.x, p.y, p.z], "quaternion_wxyz": m.frame.quaternion(),
+            json!({"i": m.point, "position_mm": [p.x, p.y, p.z], "quaternion_wxyz": m.frame.quaternion(),
                 "tool_axis": m.frame.tool().as_slice(), "wfs_m_min": m.wfs_m_min,
                 "travel_mm_s": m.travel_mm_s, "arc": match m.arc { Arc::On => "on", Arc::Restruck => "restruck", Arc::StruckHere => "struck_here" },
                 "dwell_before_s": m.dwell_s, "arc_burns_s": m.burn_s})
@@ -333,8 +364,8 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
             .axes(&m.frame.position, &m.frame.tool(), c)
             .map_err(|e| {
                 Error::input(format!(
-                    "path point {i}: the tool needs A = {:.1} degrees, outside --tilt-limits-deg {},{}",
-                    e.tilt_deg, table.tilt_min_deg, table.tilt_max_deg
+                    "path point {}: the tool needs A = {:.1} degrees, outside --tilt-limits-deg {},{}",
+                    m.point, e.tilt_deg, table.tilt_min_deg, table.tilt_max_deg
                 ))
             })?;
         c = ax.c;
@@ -377,4 +408,32 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
     }
     s.push_str("G94\nM2\n");
     Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A line of points, 1 mm apart but for a bunch of five 0.02 mm apart, one of which restrikes
+    /// the arc after a dwell, and a last point 0.05 mm after the one before it: the bunch is one
+    /// move but for the restrike, the last point is kept, and nothing is merged at 0 mm.
+    #[test]
+    fn short_moves_merge_but_where_the_arc_is_struck() {
+        let xs = [0.0, 1.0, 1.02, 1.04, 1.06, 1.08, 2.0, 3.0, 3.05];
+        let text =
+            std::iter::once("x,y,z,tool_x,tool_y,tool_z,wfs_m_min,travel_mm_s,dwell_s".to_string())
+                .chain(xs.iter().enumerate().map(|(i, x)| {
+                    let dwell = if i == 4 { 5.0 } else { 0.0 };
+                    format!("{x},0,1,0,0,1,6,10,{dwell}")
+                }))
+                .collect::<Vec<_>>()
+                .join("\n");
+        let all = moves(&text, "path.csv").unwrap();
+        let (kept, merged) = merge_short(all.clone(), MIN_MOVE_MM);
+        let points: Vec<usize> = kept.iter().map(|m| m.point).collect();
+        assert_eq!(points, [0, 1, 4, 6, 7, 8]);
+        assert_eq!(merged, 3);
+        assert_eq!(kept[2].arc, Arc::Restruck);
+        assert_eq!(merge_short(all, 0.0).1, 0);
+    }
 }
