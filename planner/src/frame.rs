@@ -1,7 +1,8 @@
 //! The tool frame a robot follows at each path point: the tool's approach axis z from the torch
 //! down to the deposit (minus the tool axis of [`crate::orientation`]), x along the direction of
-//! travel made square to it (turning no faster than the wrist's budget), y = z × x; as a rotation and a unit quaternion (w, x, y, z), the
-//! form robot programs take. Any path with tool axes serves, an imported one included.
+//! travel made square to it (turning no faster than the wrist's budget), y = z × x; as a
+//! rotation and a unit quaternion (w, x, y, z), the form robot programs take. Any path with
+//! tool axes serves, an imported one included.
 
 use crate::geometry::grid::PointGrid;
 use crate::orientation::MIN_CHORD_MM;

@@ -29,6 +29,15 @@ fn planned(out: &std::path::Path) -> (Vec<Frame>, usize) {
     )
 }
 
+/// A JSON array of numbers.
+fn floats(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
 /// The numbers between the first `open` after `key` and its `close`.
 fn numbers(line: &str, key: &str) -> Vec<f64> {
     let rest = &line[line.find(key).unwrap() + key.len()..];
@@ -78,18 +87,8 @@ fn programs_parse_back_to_the_path() {
     assert_eq!(moves.len(), expected.len());
     assert_eq!(j["arc_strikes"].as_u64().unwrap() as usize, 1 + stops);
     for (m, f) in moves.iter().zip(&expected) {
-        let p: Vec<f64> = m["position_mm"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect();
-        let q: Vec<f64> = m["quaternion_wxyz"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect();
+        let p = floats(&m["position_mm"]);
+        let q = floats(&m["quaternion_wxyz"]);
         let r = UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]));
         close(f, [p[0], p[1], p[2]], &r.to_rotation_matrix(), "json");
     }
@@ -165,12 +164,7 @@ fn short_moves_merge(out: &std::path::Path, expected: &[Frame], beads: usize) {
         }
     }
     for (m, &i) in moves.iter().zip(&kept) {
-        let p: Vec<f64> = m["position_mm"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect();
+        let p = floats(&m["position_mm"]);
         assert!((Vector3::new(p[0], p[1], p[2]) - expected[i].position.coords).norm() < 1e-6);
     }
 }
