@@ -1,8 +1,8 @@
 //! `waamtwin export`: the machine programs of a dwelled dome, parsed back: one move per path
-//! point (`--min-move-mm 0`; by default the moves under 0.1 mm merged) at its position (1e-6
-//! mm) and tool frame (1e-6 rad), the arc struck once at the start
-//! and once after each arc stop the plan made; the G-code's axes through the table's kinematics;
-//! a layered tube path struck once per bead.
+//! point (`--min-move-mm 0`; by default the moves under 0.1 mm merged) at its position
+//! (1e-6 mm) and tool frame (1e-6 rad), the arc struck once at the start and once after each
+//! arc stop the plan made; the G-code's axes through the table's kinematics; a layered tube
+//! path struck once per bead.
 
 use crate::{read_csv, waamtwin};
 use planner::frame::{Frame, frames};
