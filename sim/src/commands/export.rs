@@ -59,8 +59,12 @@ pub fn run(dir: &Path, format: Format, table: &Table, min_move_mm: f64) -> Resul
             " ({k} path points under {min_move_mm} mm from the move before merged into the next)"
         ),
     };
+    let strikes = match strikes {
+        1 => "once".to_string(),
+        k => format!("{k} times"),
+    };
     Ok(format!(
-        "{}: {} moves{merged}, the arc struck {strikes} times",
+        "{}: {} moves{merged}, the arc struck {strikes}",
         dir.join(name).display(),
         moves.len()
     ))

@@ -497,8 +497,30 @@ impl<'a> Twin<'a> {
     /// one, a spiral's revolution). The twin itself does not move.
     pub fn through_layer(
         &self,
-        (start_s, end_s): (f64, f64),
+        layer_s: (f64, f64),
         dwell_s: f64,
+        read: &(dyn Fn(&ModelRun) -> f64 + Sync),
+    ) -> Result<Vec<f64>, Error> {
+        self.through_layer_after(layer_s, Before::Dwell(dwell_s), read)
+    }
+
+    /// Per member, `read` once it has run to `start_s`, all its metal and the plate been
+    /// brought to ambient (`HeatRun::quench`) and it has run on through the program to
+    /// `end_s`: the coolest any dwell before the layer could leave it. Where the layer is over
+    /// a limit even so, no dwell brings it under (a cooler part makes a lower preheat and a
+    /// shorter pool: the assumption the dwell search makes too). The twin itself does not move.
+    pub fn through_layer_quenched(
+        &self,
+        layer_s: (f64, f64),
+        read: &(dyn Fn(&ModelRun) -> f64 + Sync),
+    ) -> Result<Vec<f64>, Error> {
+        self.through_layer_after(layer_s, Before::Quenched, read)
+    }
+
+    fn through_layer_after(
+        &self,
+        (start_s, end_s): (f64, f64),
+        before: Before,
         read: &(dyn Fn(&ModelRun) -> f64 + Sync),
     ) -> Result<Vec<f64>, Error> {
         let (deps, scale) = (&self.deps, self.heat_scale());
@@ -507,6 +529,13 @@ impl<'a> Twin<'a> {
         thermal::run::together(runs.iter_mut().collect(), |k, run| {
             let s = scale(&members[k].values);
             replay::advance_scaled(run, deps, start_s, s, &mut |_| {})?;
+            let dwell_s = match before {
+                Before::Dwell(d) => d,
+                Before::Quenched => {
+                    run.quench();
+                    0.0
+                }
+            };
             if dwell_s > 0.0 {
                 run.cool(dwell_s)?;
             }
@@ -546,6 +575,15 @@ impl<'a> Twin<'a> {
             waited += step_s;
         }
     }
+}
+
+/// What the members go through between a layer's start and their running through it.
+#[derive(Clone, Copy)]
+enum Before {
+    /// A dwell of so many seconds with the arc off.
+    Dwell(f64),
+    /// Brought to ambient at once.
+    Quenched,
 }
 
 /// The q-quantile of `v` (linear between order statistics), NaN-free input.
@@ -591,6 +629,63 @@ mod tests {
             0.5,
         )
         .unwrap()
+    }
+
+    /// What the dwell search's shortcut (`Twin::through_layer_quenched`, `follow`'s advice)
+    /// stands on: a track laid on the part brought to ambient reads a lower preheat and a
+    /// shorter melt pool, member by member, than laid after no dwell, half a minute's or an
+    /// hour's.
+    #[test]
+    fn a_track_laid_on_the_quenched_part_is_the_coolest_any_dwell_leaves() {
+        let r = wall();
+        let prior = Uncertain {
+            parameter: Parameter::Efficiency,
+            range: Range {
+                low: 0.3,
+                high: 0.95,
+            },
+            mean: 0.8,
+            sd: 0.1,
+        };
+        let settings = Settings {
+            ensemble: 4,
+            ..Settings::default()
+        };
+        let twin = Twin::new(&r, settings, vec![prior]).unwrap();
+        let d = &r.deps;
+        let starts: Vec<usize> = (1..d.len())
+            .filter(|&i| d[i].arc_start() - d[i - 1].time > 1.0)
+            .collect();
+        let (first, last) = (starts[4], starts[5] - 1);
+        let layer_s = (d[first].arc_start(), d[last].time);
+        // The mean, not the hottest: on this small wall the hottest preheat is the track's own
+        // heat ahead of the torch, the same after any dwell.
+        let preheat = |run: &ModelRun| -> f64 {
+            (first..=last).map(|i| run.points()[i].preheat).sum::<f64>() / (last + 1 - first) as f64
+        };
+        let pool = |run: &ModelRun| -> f64 {
+            (first..=last)
+                .map(|i| run.points()[i].pool_length)
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        let reads: [(&str, &(dyn Fn(&ModelRun) -> f64 + Sync)); 2] =
+            [("preheat K", &preheat), ("pool m", &pool)];
+        for (name, read) in reads {
+            let coolest = twin.through_layer_quenched(layer_s, read).unwrap();
+            for dwell_s in [0.0, 30.0, 3600.0] {
+                let after = twin.through_layer(layer_s, dwell_s, read).unwrap();
+                for (c, a) in coolest.iter().zip(&after) {
+                    assert!(c <= a, "{name}: quenched {c:.4}, after {dwell_s} s {a:.4}");
+                }
+            }
+            // Not a bound by being equal: with no dwell the track is laid on hot metal.
+            let hot = twin.through_layer(layer_s, 0.0, read).unwrap();
+            assert!(
+                coolest.iter().zip(&hot).all(|(c, h)| c < h),
+                "{name}: quenched {coolest:?}, no dwell {hot:?}, an hour {:?}",
+                twin.through_layer(layer_s, 3600.0, read).unwrap()
+            );
+        }
     }
 
     /// An identical-twin experiment, the standard check of a filter: readings made by the
