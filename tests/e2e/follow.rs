@@ -150,7 +150,8 @@ fn scores(v: &serde_json::Value, horizon: &str) -> serde_json::Value {
 /// default 30 s: the forecasts are most of the twin's work (each runs the 16 members and the
 /// open loop ahead), and at 30 s this test alone took 319 s and 571 s of CPU on a 2-core CI
 /// machine, at 60 s 193 s and 333 s (`waamtwin follow` of the whole file, 2026-11-30), with
-/// every score on the same side of its bound (docs/PERFORMANCE.md "CI's time, again").
+/// every score on the same side of its bound (docs/PERFORMANCE.md "CI's time on a slower
+/// machine").
 #[test]
 #[cfg_attr(
     not(validation_data),

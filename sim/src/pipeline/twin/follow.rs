@@ -762,16 +762,14 @@ impl Follower<'_> {
         self.progress.alarms.push(alarm.clone());
         Ok(Some(alarm))
     }
-}
 
-impl Follower<'_> {
     /// The least dwell before the layer from `layer_s.0` to `layer_s.1` (in 5 s steps, up to
     /// an hour) after which `read`'s 95th percentile over the members run through it is within
     /// `limit`. None where no dwell is: found at once where even the layer laid on the part
     /// brought to ambient is over (`Twin::through_layer_quenched`, the coolest any dwell leaves
-    /// it), where the search would cool the members through some 8 700 s of dwells to say so
-    /// (a melt pool longer than the limit on a wall too small to lose its heat between
-    /// tracks: `follow` of the e2e test's small wall 33.3 → 1.4 s).
+    /// it), where the search cooled the members through some 8 700 s of dwells to say so (a
+    /// melt pool longer than the limit on a wall too small to lose its heat between tracks:
+    /// the e2e test's small wall followed in 33.3 s before, 1.4 s now).
     fn least_layer_dwell(
         &self,
         layer_s: (f64, f64),

@@ -668,8 +668,8 @@ mod tests {
                 .map(|i| run.points()[i].pool_length)
                 .fold(f64::NEG_INFINITY, f64::max)
         };
-        let reads: [(&str, &(dyn Fn(&ModelRun) -> f64 + Sync)); 2] =
-            [("preheat K", &preheat), ("pool m", &pool)];
+        type Read<'r> = &'r (dyn Fn(&ModelRun) -> f64 + Sync);
+        let reads: [(&str, Read); 2] = [("preheat K", &preheat), ("pool m", &pool)];
         for (name, read) in reads {
             let coolest = twin.through_layer_quenched(layer_s, read).unwrap();
             for dwell_s in [0.0, 30.0, 3600.0] {
