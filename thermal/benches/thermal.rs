@@ -51,7 +51,7 @@ fn main() {
         hot_threshold: 873.15,
         snapshot_times: vec![],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         courant: 0.9,
         probes: vec![],
         probe_every: 0.0,
@@ -115,7 +115,7 @@ fn main() {
         probe_every: 0.0,
         snapshot_times: vec![],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         local_steps: None,
         merge_plate: true,
     };

@@ -46,7 +46,7 @@ fn main() {
         hot_threshold: 873.15,
         snapshot_times: vec![],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         courant: 0.9,
         probes: vec![],
         probe_every: 0.0,

@@ -131,7 +131,7 @@ impl Trace {
     }
 }
 
-/// The hottest laid metal at every step (the settings' `trace_hottest`): what the arc does to the
+/// The hottest laid metal at every step (the settings' `watch_metal`): what the arc does to the
 /// part between snapshots, every pass's peak included.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Hottest {
@@ -471,11 +471,12 @@ impl HeatModel {
         }
     }
 
-    /// Whether the hottest laid metal is kept at every step ([`RunResult::hottest`]).
-    pub fn set_trace_hottest(&mut self, on: bool) {
+    /// Whether the run watches its laid metal at every step: each deposit's peak and time above
+    /// the hot threshold, and the hottest of it ([`RunResult::hottest`]); NaN peaks where not.
+    pub fn set_watch_metal(&mut self, on: bool) {
         match self {
-            HeatModel::ThinWall(s) => s.trace_hottest = on,
-            HeatModel::Voxel(s) => s.trace_hottest = on,
+            HeatModel::ThinWall(s) => s.watch_metal = on,
+            HeatModel::Voxel(s) => s.watch_metal = on,
         }
     }
 }

@@ -44,9 +44,12 @@ pub struct WallSettings {
     /// Deposits whose metal's temperature is kept at every step from when it is laid: a
     /// history finer than the snapshots, which shows every pass of the torch.
     pub traces: Vec<usize>,
-    /// Keep the hottest laid metal at every step ([`crate::run::Hottest`]); off for the dwell
-    /// planner's runs, whose checkpoints it would only make longer.
-    pub trace_hottest: bool,
+    /// Watch the laid metal at every step: each deposit's peak and time above `hot_threshold`
+    /// (`PointResult::peak`, `time_above`) and the hottest of it ([`crate::run::Hottest`]),
+    /// what `simulate` writes. Off where nothing reads them (the dwell search, replays,
+    /// calibration, the live twin): the peaks and times above are then NaN, not read. (The voxel
+    /// model's watch is the costly one; the thin wall's reads its nodes alone.)
+    pub watch_metal: bool,
     /// Points whose temperature is kept ([`crate::run::ProbeTrace`]), m: each reads the
     /// nearest node (a bead node or a plate cell) whose centre lies within the larger of
     /// `min_node` and the plate's cell of it, once that node is there.
@@ -499,7 +502,11 @@ impl WallRun {
         let thr = self.settings.hot_threshold;
         // The nodes the step moved, each by its own time (all of them but where the nodes far
         // from the arc step at their own rates).
-        for &(a, b, tau) in net.stepped() {
+        let watched = match self.settings.watch_metal {
+            true => net.stepped(),
+            false => &[],
+        };
+        for &(a, b, tau) in watched {
             for k in a..b {
                 if net.t[k] > thr {
                     self.time_above[k] += tau;
@@ -513,7 +520,7 @@ impl WallRun {
                 tr.temperature.push(net.t[self.model.node_of[tr.deposit]]);
             }
         }
-        if self.settings.trace_hottest && self.laid > 0 {
+        if self.settings.watch_metal && self.laid > 0 {
             let node_of = &self.model.node_of[..self.laid];
             let hottest = node_of.iter().map(|&k| net.t[k]).fold(f64::NAN, f64::max);
             self.hottest.push(true, self.now, hottest);
@@ -724,8 +731,10 @@ impl HeatRun for WallRun {
         let support = (0..self.points.len()).map(|i| self.support(i)).collect();
         for (i, p) in self.points.iter_mut().enumerate() {
             let node = self.model.node_of[i];
-            p.peak = self.peak[node];
-            p.time_above = self.time_above[node];
+            (p.peak, p.time_above) = match self.settings.watch_metal {
+                true => (self.peak[node], self.time_above[node]),
+                false => (f64::NAN, f64::NAN),
+            };
         }
         let net = &self.model.network;
         RunResult {

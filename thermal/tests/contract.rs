@@ -41,7 +41,7 @@ fn models(material: Material) -> [HeatModel; 4] {
         hot_threshold: 873.15,
         snapshot_times: vec![5.0, 25.0],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         courant: 0.9,
         probes: vec![],
         probe_every: 0.0,
@@ -63,7 +63,7 @@ fn models(material: Material) -> [HeatModel; 4] {
         probe_every: 0.0,
         snapshot_times: vec![5.0, 25.0],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         local_steps: None,
         merge_plate: true,
     };
@@ -150,7 +150,7 @@ fn a_run_kept_as_bytes_carries_on_to_the_bit() {
     let deps = schedule();
     for mut model in all_models(Material::g3si()) {
         model.set_traces(vec![3, 45]);
-        model.set_trace_hottest(true);
+        model.set_watch_metal(true);
         let [x, y, z] = deps[75].position;
         model.set_probes(vec![[0.0, 0.025, 0.0], [x, y, z + 1e-3]], 0.0);
         let bytes = |r: &RunResult| postcard::to_stdvec(r).unwrap();
@@ -511,7 +511,7 @@ fn the_hottest_metal_bounds_every_trace_and_reaches_the_highest_peak() {
     let deps = schedule();
     for mut model in all_models(Material::g3si()) {
         model.set_traces(vec![10, 50]);
-        model.set_trace_hottest(true);
+        model.set_watch_metal(true);
         let r = model.simulate(&deps).unwrap();
         let h = &r.hottest;
         assert!(h.time.len() >= r.traces[0].time.len(), "{}", model.name());
@@ -536,9 +536,43 @@ fn the_hottest_metal_bounds_every_trace_and_reaches_the_highest_peak() {
         );
         assert!(h.temperature.iter().all(|&t| t > 293.15 - 1.0));
     }
-    // Off unless asked for: the dwell planner's checkpoints stay small.
-    let r = models(Material::g3si())[0].simulate(&deps).unwrap();
-    assert!(r.hottest.time.is_empty());
+}
+
+/// A run that does not watch its metal (`watch_metal` off: the dwell search, replays,
+/// calibration and the live twin, which read none of it) is the same run to the bit: the
+/// preheats, pools, snapshots, probes and energy ledger; only the peaks and times above are NaN
+/// (not read) and the hottest metal is not kept. Both models on the CPU (a GPU reads the peaks
+/// on the device whatever the setting).
+#[test]
+fn a_run_that_does_not_watch_its_metal_is_the_same_run_to_the_bit() {
+    let deps = schedule();
+    for mut model in models(Material::g3si()) {
+        let [x, y, z] = deps[75].position;
+        model.set_probes(vec![[0.0, 0.025, 0.0], [x, y, z + 1e-3]], 0.0);
+        model.set_watch_metal(true);
+        let mut watched = model.simulate(&deps).unwrap();
+        model.set_watch_metal(false);
+        let not = model.simulate(&deps).unwrap();
+        let name = model.name();
+        assert!(not.hottest.time.is_empty(), "{name}");
+        assert!(
+            not.points
+                .iter()
+                .all(|p| p.peak.is_nan() && p.time_above.is_nan()),
+            "{name}: peaks not read are NaN"
+        );
+        assert!(!watched.hottest.time.is_empty(), "{name}");
+        assert!(
+            watched.points.iter().all(|p| p.peak > 293.0) && watched.points[0].time_above > 0.0,
+            "{name}: peaks read"
+        );
+        for p in &mut watched.points {
+            (p.peak, p.time_above) = (f64::NAN, f64::NAN);
+        }
+        watched.hottest = Default::default();
+        let bytes = |r: &RunResult| postcard::to_stdvec(r).unwrap();
+        assert!(bytes(&watched) == bytes(&not), "{name}: another run");
+    }
 }
 
 /// A probe reads nothing (NaN) until metal lies within a cell of it, then the temperature of

@@ -39,7 +39,7 @@ fn build(device: Device) -> (Vec<Deposit>, VoxelSettings) {
         snapshot_times: vec![10.0, 40.0],
         // No trace: a trace has the host observe the metal every step; without, the device does.
         traces: vec![],
-        trace_hottest: true,
+        watch_metal: true,
         courant: 0.9,
         probes: vec![[0.024, 0.0, -1e-3], [0.0, 0.024, 5e-3]],
         probe_every: 0.5,

@@ -46,7 +46,7 @@ fn settings(local_steps: Option<LocalSteps>) -> WallSettings {
         probe_every: 0.0,
         snapshot_times: vec![],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         local_steps,
         merge_plate: true,
     }

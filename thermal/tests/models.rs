@@ -54,7 +54,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         probe_every: 0.0,
         snapshot_times: vec![],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         local_steps: None,
         merge_plate: true,
     };
@@ -72,7 +72,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         hot_threshold: 873.15,
         snapshot_times: vec![],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         courant: 0.9,
         probes: vec![],
         probe_every: 0.0,

@@ -79,7 +79,7 @@ fn adiabatic_voxels(
         hot_threshold: 873.15,
         snapshot_times: vec![],
         traces: vec![],
-        trace_hottest: false,
+        watch_metal: true,
         courant: 0.9,
         probes: vec![],
         probe_every: 0.0,

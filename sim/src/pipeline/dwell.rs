@@ -1452,7 +1452,7 @@ mod tests {
             probe_every: 0.0,
             snapshot_times: vec![],
             traces: vec![],
-            trace_hottest: false,
+            watch_metal: false,
             local_steps: Some(thermal::rates::LocalSteps {
                 near: 0.02,
                 period: 1.0,

@@ -317,7 +317,7 @@ impl Build {
         };
         let mut model = self.heat_model(&deposits, times);
         model.set_traces(traces);
-        model.set_trace_hottest(true);
+        model.set_watch_metal(true);
         let n = deposits.len();
         let (result, wall_s) = ck.stage(stage, |ck, progress| {
             let mut run = match ck.load::<ModelRun>(progress) {

@@ -95,9 +95,13 @@ pub struct VoxelSettings {
     /// Deposits whose metal's temperature is kept at every step from when it is laid: a
     /// history finer than the snapshots, which shows every pass of the torch.
     pub traces: Vec<usize>,
-    /// Keep the hottest laid metal at every step ([`crate::run::Hottest`]); off for the dwell
-    /// planner's runs, whose checkpoints it would only make longer.
-    pub trace_hottest: bool,
+    /// Watch the laid metal at every step: each deposit's peak and time above `hot_threshold`
+    /// (`PointResult::peak`, `time_above`) and the hottest of it ([`crate::run::Hottest`]),
+    /// what `simulate` writes. Off where nothing reads them (the dwell search, replays,
+    /// calibration, the live twin): the peaks and times above are then NaN, not read. On a
+    /// grid of many small deposits the watch costs a sixth of a step (docs/PERFORMANCE.md,
+    /// "CI time").
+    pub watch_metal: bool,
     /// Stability margin on the explicit step (≤ 1).
     pub courant: f64,
     /// Points whose temperature is kept ([`crate::run::ProbeTrace`]), m.
@@ -485,6 +489,12 @@ impl VoxelModel {
     }
 
     /// Whether voxel v is of the plate's own material.
+    /// Whether a step reads the laid metal's peaks (the settings' `watch_metal`; always on a
+    /// GPU, where the device reads them alongside its step).
+    fn watches(&self) -> bool {
+        self.settings.watch_metal || self.settings.device == Device::Gpu
+    }
+
     fn of_substrate(&self, v: u32) -> Option<&Substrate> {
         self.substrate
             .as_deref()
@@ -1650,9 +1660,18 @@ impl VoxelRun {
                 value: dt_max,
             });
         }
-        let start = PointResult {
-            peak: model.settings.surroundings.ambient_k,
-            ..PointResult::default()
+        // Not watched: the peaks and times above are not read, and say so. (A GPU reads them
+        // on the device alongside its step, at no cost to the host.)
+        let start = match model.watches() {
+            true => PointResult {
+                peak: model.settings.surroundings.ambient_k,
+                ..PointResult::default()
+            },
+            false => PointResult {
+                peak: f64::NAN,
+                time_above: f64::NAN,
+                ..PointResult::default()
+            },
         };
         let mut points = vec![start; deps.len()];
         let mut probes_at = vec![Vec::new(); deps.len()];
@@ -1713,11 +1732,10 @@ impl VoxelRun {
         let source: &[(u32, f32)] = if source_on { &self.source } else { &[] };
         let laid = self.laid + usize::from(source_on);
         let points = &mut self.points;
-        let hottest = self
-            .model
-            .step_watched(dt, source, Some(Watch { laid, points }));
+        let watch = self.model.watches().then_some(Watch { laid, points });
+        let hottest = self.model.step_watched(dt, source, watch);
         self.now += dt;
-        let on = self.model.settings.trace_hottest;
+        let on = self.model.settings.watch_metal;
         self.hottest.push(on, self.now, hottest);
         self.record(laid);
     }
@@ -1726,7 +1744,7 @@ impl VoxelRun {
     #[cfg(feature = "gpu")]
     fn observe(&mut self, laid: usize, dt: f64) {
         let hottest = self.model.observe(laid, dt, &mut self.points);
-        let on = self.model.settings.trace_hottest;
+        let on = self.model.settings.watch_metal;
         self.hottest.push(on, self.now, hottest);
     }
 
@@ -1784,7 +1802,7 @@ impl VoxelRun {
     fn read_device(&mut self, what: Read) {
         #[cfg(feature = "gpu")]
         if self.model.settings.device == Device::Gpu {
-            let on = self.model.settings.trace_hottest;
+            let on = self.model.settings.watch_metal;
             let (points, hottest) = (&mut self.points, &mut self.hottest);
             self.model.gpu_read(points, hottest, on, what);
         }
@@ -2337,7 +2355,7 @@ mod tests {
             hot_threshold: 873.15,
             snapshot_times: vec![],
             traces: vec![],
-            trace_hottest: false,
+            watch_metal: true,
             courant: 0.9,
             probes: vec![],
             probe_every: 0.0,
