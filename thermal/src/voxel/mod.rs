@@ -99,8 +99,8 @@ pub struct VoxelSettings {
     /// (`PointResult::peak`, `time_above`) and the hottest of it ([`crate::run::Hottest`]),
     /// what `simulate` writes. Off where nothing reads them (the dwell search, replays,
     /// calibration, the live twin): the peaks and times above are then NaN, not read. On a
-    /// grid of many small deposits the watch costs a sixth of a step (docs/PERFORMANCE.md,
-    /// "CI time").
+    /// grid of many small deposits the watch is a sixth of the run (the ORNL pad followed
+    /// live: docs/PERFORMANCE.md, "CI time").
     pub watch_metal: bool,
     /// Stability margin on the explicit step (≤ 1).
     pub courant: f64,
@@ -488,13 +488,13 @@ impl VoxelModel {
         Ok(m)
     }
 
-    /// Whether voxel v is of the plate's own material.
     /// Whether a step reads the laid metal's peaks (the settings' `watch_metal`; always on a
     /// GPU, where the device reads them alongside its step).
     fn watches(&self) -> bool {
         self.settings.watch_metal || self.settings.device == Device::Gpu
     }
 
+    /// Whether voxel v is of the plate's own material.
     fn of_substrate(&self, v: u32) -> Option<&Substrate> {
         self.substrate
             .as_deref()
