@@ -3,8 +3,9 @@
 //! (CTPP §2.2: the lower boundary lies on the substrate). A mesh drawn elsewhere, on its side,
 //! or in another unit would still plan, and the thin wall would heat it as if it stood on the
 //! plate while the voxel model laid part of its metal and its heat (a dome drawn 250 mm up: two
-//! thirds of its metal, half its heat): both answers wrong, neither saying so. So a part is taken only where it
-//! stands on z = 0, within half a layer (docs/PHYSICS.md "The part on the plate").
+//! thirds of its metal, half its heat): both answers wrong, neither saying so. So a part is
+//! taken only where it stands on z = 0, within half a layer (docs/PHYSICS.md "The part on the
+//! plate").
 
 use planner::mesh::Part;
 use std::fmt;
