@@ -62,12 +62,15 @@ pub fn run(
         .or(cal.holdout_s)
         .unwrap_or([end_s / 2.0, end_s]);
     // At most `max_runs` runs to the fit window's end, and the start and the fit run whole.
+    // Held at once: the runs the fit may end at (2n + 4 for n parameters, `calibrate`'s
+    // `keep`) and those made side by side, one a thread.
+    let held = 2 * cal.parameters.len() + 4 + rayon::current_num_threads();
     super::cost::check_replay(
         &name.to_string(),
         &r,
         end_s,
         super::cost::Keeps {
-            copies: 2.0,
+            copies: held as f64,
             runs: cal.max_runs as f64 * (fit_w[1] / end_s.max(1e-9)).min(1.0) + 2.0,
             readings: super::replay::readings(&m),
             ..super::cost::Keeps::ONE_RUN

@@ -6,7 +6,7 @@
 //! A file is one header line and the engine's bytes:
 //!
 //! ```text
-//! waamtwin-checkpoint {"command":"dwell","version":"0.1.0","format":1,"fingerprint":"…","stage":"before.run","bytes":812345,"crc32":305419896}
+//! waamtwin-checkpoint {"command":"dwell","version":"0.1.0","format":2,"fingerprint":"…","stage":"before.run","bytes":812345,"crc32":305419896}
 //! <bytes>
 //! ```
 //!
@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// Bumped whenever a kept state's layout changes within one version.
-pub const FORMAT: u32 = 1;
+pub const FORMAT: u32 = 2;
 const MAGIC: &str = "waamtwin-checkpoint ";
 /// The longest header line read.
 const HEADER_MAX: usize = 4096;

@@ -88,19 +88,35 @@ pub fn fit<E>(
     s: Settings,
     mut residuals: impl FnMut(&[f64]) -> Result<Vec<f64>, E>,
 ) -> Result<Fit, E> {
+    fit_batched(start, ranges, s, |points| {
+        points.iter().map(|p| residuals(p)).collect()
+    })
+}
+
+/// [`fit`], handed the points it needs together: `residuals` takes several (a Jacobian's n,
+/// else one) and returns theirs in the same order, so that a caller may evaluate them side by
+/// side. The same points asked in the same order, and the same fit, as [`fit`].
+pub fn fit_batched<E>(
+    start: &[f64],
+    ranges: &[Range],
+    s: Settings,
+    mut residuals: impl FnMut(&[Vec<f64>]) -> Result<Vec<Vec<f64>>, E>,
+) -> Result<Fit, E> {
     let n = start.len();
     let values = |u: &[f64]| -> Vec<f64> { (0..n).map(|i| ranges[i].value(u[i])).collect() };
     let mut u: Vec<f64> = (0..n)
         .map(|i| ranges[i].unit(start[i]).clamp(0.0, 1.0))
         .collect();
-    let mut r = residuals(&values(&u))?;
+    let mut r = one(&mut residuals, values(&u))?;
     let mut runs = 1;
     let rms_start = rms(&r);
     let mut lambda = 1e-2;
     let mut iterations = 0;
     let mut jac = None;
     while runs + n < s.max_runs {
-        let j = jacobian(&u, &r, s.step, &mut runs, |u| residuals(&values(u)))?;
+        let j = jacobian(&u, &r, s.step, &mut runs, |us| {
+            residuals(&us.iter().map(|u| values(u)).collect::<Vec<_>>())
+        })?;
         let (a, g) = normal(&j, &r);
         jac = Some(j);
         iterations += 1;
@@ -118,7 +134,7 @@ pub fn fit<E>(
             if trial.iter().zip(&u).all(|(a, b)| (a - b).abs() < 1e-6) {
                 break;
             }
-            let rt = residuals(&values(&trial))?;
+            let rt = one(&mut residuals, values(&trial))?;
             runs += 1;
             if ssr(&rt) < ssr(&r) {
                 let gain = (ssr(&r) - ssr(&rt)) / ssr(&r).max(f64::MIN_POSITIVE);
@@ -138,7 +154,9 @@ pub fn fit<E>(
     // The Jacobian at the optimum, for the sensitivities and the intervals.
     let j = match jac {
         Some(j) => j,
-        None => jacobian(&u, &r, s.step, &mut runs, |u| residuals(&values(u)))?,
+        None => jacobian(&u, &r, s.step, &mut runs, |us| {
+            residuals(&us.iter().map(|u| values(u)).collect::<Vec<_>>())
+        })?,
     };
     let found = values(&u);
     let (sensitivity, ci95, covariance) = statistics(&j, &r, ranges, &found, s.independent);
@@ -154,21 +172,38 @@ pub fn fit<E>(
     })
 }
 
-/// Forward differences in units of the bounds, stepping inwards at an upper bound.
+/// The residuals of one point.
+fn one<E>(
+    residuals: &mut impl FnMut(&[Vec<f64>]) -> Result<Vec<Vec<f64>>, E>,
+    point: Vec<f64>,
+) -> Result<Vec<f64>, E> {
+    residuals(&[point]).map(|mut r| r.pop().expect("one residual vector a point"))
+}
+
+/// Forward differences in units of the bounds, stepping inwards at an upper bound: the n
+/// points asked together.
 fn jacobian<E>(
     u: &[f64],
     r: &[f64],
     step: f64,
     runs: &mut usize,
-    mut residuals: impl FnMut(&[f64]) -> Result<Vec<f64>, E>,
+    residuals: impl FnOnce(&[Vec<f64>]) -> Result<Vec<Vec<f64>>, E>,
 ) -> Result<DMatrix<f64>, E> {
+    let steps: Vec<f64> = u
+        .iter()
+        .map(|&ui| if ui + step <= 1.0 { step } else { -step })
+        .collect();
+    let points: Vec<Vec<f64>> = (0..u.len())
+        .map(|i| {
+            let mut v = u.to_vec();
+            v[i] += steps[i];
+            v
+        })
+        .collect();
+    let rs = residuals(&points)?;
+    *runs += u.len();
     let mut j = DMatrix::zeros(r.len(), u.len());
-    for i in 0..u.len() {
-        let h = if u[i] + step <= 1.0 { step } else { -step };
-        let mut v = u.to_vec();
-        v[i] += h;
-        let ri = residuals(&v)?;
-        *runs += 1;
+    for (i, (ri, h)) in rs.iter().zip(&steps).enumerate() {
         for k in 0..r.len() {
             j[(k, i)] = (ri[k] - r[k]) / h;
         }

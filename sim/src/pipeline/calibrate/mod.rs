@@ -50,7 +50,7 @@
 
 pub mod lm;
 
-pub use lm::{Fit, Range, Settings, fit};
+pub use lm::{Fit, Range, Settings, fit, fit_batched};
 
 use super::Error;
 use super::checkpoint::Checkpoints;
@@ -120,13 +120,12 @@ pub fn calibrate(
     let fit_w = task.fit_s;
     // Each evaluation of the fit is a stage of its own: a run that resumes takes those done
     // and the fit, deterministic, asks for them again in the same order.
-    let evaluate = |k: usize, values: &[f64], ck: &mut Checkpoints<'_>| {
-        ck.stage(&format!("evaluation-{k}"), |ck, progress| {
+    let evaluate = |k: usize, points: &[Vec<f64>], ck: &mut Checkpoints<'_>| {
+        side_by_side(k, points, ck, |values, ck, progress| {
             stopped(r, &names, values, fit_w[1], ck, progress)
         })
-        .map(|done| done.0)
     };
-    let first = evaluate(0, &start, ck)?;
+    let first = evaluate(0, std::slice::from_ref(&start), ck)?.remove(0);
     let samples = fit_samples(m, &first.traces, fit_w);
     if samples.is_empty() {
         return Err(Error::Measured(format!(
@@ -146,23 +145,26 @@ pub fn calibrate(
     let mut recent: Vec<(usize, Stopped)> = Vec::new();
     let mut first = Some(first);
     let mut k = 0;
-    let found = fit(&start, &ranges, settings, |values| {
-        let run = match first.take() {
+    let found = fit_batched(&start, &ranges, settings, |points| {
+        let runs = match first.take() {
             // The first evaluation is the run made above.
-            Some(f) => Stopped {
-                values: values.to_vec(),
+            Some(f) => vec![Stopped {
+                values: points[0].clone(),
                 ..f
-            },
-            None => evaluate(k, values, ck)?,
+            }],
+            None => evaluate(k, points, ck)?,
         };
-        let residuals = residuals(m, &run.traces, &samples);
-        recent.push((k, run));
-        k += 1;
-        if recent.len() > keep + 1 {
-            let (gone, run) = recent.remove(1);
-            ck.save(&format!("evaluation-{gone}"), &run.light());
+        let mut out = Vec::with_capacity(runs.len());
+        for run in runs {
+            out.push(residuals(m, &run.traces, &samples));
+            recent.push((k, run));
+            k += 1;
+            if recent.len() > keep + 1 {
+                let (gone, run) = recent.remove(1);
+                ck.save(&format!("evaluation-{gone}"), &run.light());
+            }
         }
-        Ok::<_, Error>(residuals)
+        Ok::<_, Error>(out)
     })?;
     let before = recent.first().map(|r| r.1.clone());
     let after = recent
@@ -183,12 +185,32 @@ pub fn calibrate(
         }
     };
     drop(recent);
-    let (before, _) = ck.stage("before_to_end", |ck, progress| {
-        resumed(before, task.end_s, ck, progress)
-    })?;
-    let (after, _) = ck.stage("after_to_end", |ck, progress| {
-        resumed(after, task.end_s, ck, progress)
-    })?;
+    // The two runs on to the build's end, side by side (the one beside held to no checkpoint,
+    // as `side_by_side`'s).
+    let kept = ck.done::<Vec<ProbeTrace>>("after_to_end");
+    let mut made = None;
+    let before = rayon::in_place_scope(|scope| {
+        if kept.is_none() {
+            scope.spawn(|_| {
+                let clock = std::time::Instant::now();
+                let run = resumed(after, task.end_s, &mut Checkpoints::off(), "");
+                made = Some(run.map(|t| (t, clock.elapsed().as_secs_f64())));
+            });
+        }
+        ck.stage("before_to_end", |ck, progress| {
+            resumed(before, task.end_s, ck, progress)
+        })
+    });
+    let before = before?.0;
+    let after = match (kept, made) {
+        (Some((after, _)), _) => after,
+        (None, Some(made)) => {
+            let (after, spent_s) = made?;
+            ck.keep_done("after_to_end", &after, spent_s);
+            after
+        }
+        (None, None) => unreachable!("the run to the end is kept or made"),
+    };
     Ok(Calibrated {
         start,
         fit: found,
@@ -197,6 +219,52 @@ pub fn calibrate(
         before,
         after,
     })
+}
+
+/// The evaluations `k`, `k + 1`, … of `points`, each a stage of its own (`evaluation-K`):
+/// those an earlier run kept are taken, the first of the rest made on this thread (its work
+/// in progress kept as it goes), the others beside it on the pool's other threads, each kept
+/// once all are done (they hold no `Checkpoints`: a kill before then makes them again, as
+/// `dwell`'s baselines do). A fit's Jacobian is n runs that do not depend on each other: on two
+/// cores the GAMMA wall's calibration (three parameters) takes two rounds a Jacobian, not three.
+/// The runs are the same whichever thread makes them, so the fit is too.
+fn side_by_side(
+    k: usize,
+    points: &[Vec<f64>],
+    ck: &mut Checkpoints<'_>,
+    run: impl Fn(&[f64], &mut Checkpoints<'_>, &str) -> Result<Stopped, Error> + Sync,
+) -> Result<Vec<Stopped>, Error> {
+    let stage = |i: usize| format!("evaluation-{}", k + i);
+    let mut done: Vec<Option<Stopped>> = (0..points.len())
+        .map(|i| ck.done::<Stopped>(&stage(i)).map(|d| d.0))
+        .collect();
+    let missing: Vec<usize> = (0..points.len()).filter(|&i| done[i].is_none()).collect();
+    let Some((&mine, others)) = missing.split_first() else {
+        return Ok(done.into_iter().flatten().collect());
+    };
+    let mut made: Vec<Option<Result<(Stopped, f64), Error>>> =
+        others.iter().map(|_| None).collect();
+    let run = &run;
+    let here = rayon::in_place_scope(|scope| {
+        for (slot, &i) in made.iter_mut().zip(others) {
+            let values = &points[i];
+            scope.spawn(move |_| {
+                let clock = std::time::Instant::now();
+                let result = run(values, &mut Checkpoints::off(), "");
+                *slot = Some(result.map(|s| (s, clock.elapsed().as_secs_f64())));
+            });
+        }
+        ck.stage(&stage(mine), |ck, progress| {
+            run(&points[mine], ck, progress)
+        })
+    });
+    done[mine] = Some(here?.0);
+    for (slot, &i) in made.into_iter().zip(others) {
+        let (s, spent_s) = slot.expect("the scope ran every task")?;
+        ck.keep_done(&stage(i), &s, spent_s);
+        done[i] = Some(s);
+    }
+    Ok(done.into_iter().flatten().collect())
 }
 
 /// Run with `values` of `parameters` from the start until `until_s`, kept under `progress`.
@@ -279,4 +347,168 @@ fn independent(m: &Series, samples: &[(usize, usize)]) -> usize {
         .collect();
     seconds.dedup();
     seconds.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::measured::toolpath::Waypoint;
+    use crate::pipeline::checkpoint::Store;
+    use crate::pipeline::params::{ThermalModel, ThermalSettings};
+    use crate::pipeline::replay::Laying;
+    use std::cell::Cell;
+    use std::collections::BTreeMap;
+
+    /// A store in memory that keeps a run's state every `every`-th time one is offered, and
+    /// logs what it was told in order: the first n entries of the log are what a run killed
+    /// after them left.
+    #[derive(Default)]
+    struct Log {
+        kept: BTreeMap<String, Vec<u8>>,
+        log: Vec<(String, Option<Vec<u8>>)>,
+        asked: Cell<usize>,
+        every: usize,
+    }
+
+    impl Store for Log {
+        fn due(&self) -> bool {
+            self.asked.set(self.asked.get() + 1);
+            self.asked.get().is_multiple_of(self.every)
+        }
+        fn load(&mut self, stage: &str) -> Option<Vec<u8>> {
+            self.kept.get(stage).cloned()
+        }
+        fn save(&mut self, stage: &str, bytes: &[u8]) {
+            self.kept.insert(stage.to_string(), bytes.to_vec());
+            self.log.push((stage.to_string(), Some(bytes.to_vec())));
+        }
+        fn remove(&mut self, stage: &str) {
+            self.kept.remove(stage);
+            self.log.push((stage.to_string(), None));
+        }
+    }
+
+    /// The doc example's wall, "measured" at 80 % efficiency and 30 W/(m² K).
+    fn wall() -> (Replay, Series, Task) {
+        let track = |k: usize, t: f64, x: f64, on| Waypoint {
+            t_s: 20.0 * k as f64 + t,
+            position_mm: [x, 0.0, 1.5 * (k + 1) as f64],
+            on,
+            power_w: None,
+        };
+        let path: Vec<Waypoint> = (0..6)
+            .flat_map(|k| [track(k, 0.0, -15.0, false), track(k, 6.0, 15.0, true)])
+            .collect();
+        let laying = Laying {
+            power_w: 1500.0,
+            efficiency: 0.6,
+            width_m: 4e-3,
+            height_m: 1.5e-3,
+            deposit_m: 2e-3,
+        };
+        let thermal = ThermalSettings {
+            model: ThermalModel::Voxel,
+            plate_m: [0.06, 0.03, 0.008],
+            plate_fit: false,
+            ..Default::default()
+        };
+        let g3si = (thermal::material::Material::g3si(), None);
+        let probe = vec![[0.0, 0.008, 0.0]];
+        let r = Replay::new(
+            &path,
+            &laying,
+            &thermal,
+            g3si,
+            Default::default(),
+            probe,
+            1.0,
+        )
+        .unwrap();
+        let names = [Parameter::Efficiency, Parameter::Convection];
+        let truth = r.values.with(&names, &[0.8, 30.0]);
+        let (_, run) = r
+            .run_kept(&truth, 120.0, &mut Checkpoints::off(), "")
+            .unwrap();
+        let p = &run.probes[0];
+        let measured = Series {
+            t_s: p.time.clone(),
+            values: vec![
+                p.temperature
+                    .iter()
+                    .map(|k| Some(thermal::celsius(*k)))
+                    .collect(),
+            ],
+        };
+        let range = |low, high| Range { low, high };
+        let task = Task {
+            parameters: vec![
+                (Parameter::Efficiency, range(0.3, 0.95)),
+                (Parameter::Convection, range(5.0, 100.0)),
+            ],
+            fit_s: [0.0, 60.0],
+            end_s: 120.0,
+            max_runs: 10,
+        };
+        (r, measured, task)
+    }
+
+    /// A calibration killed part-way, at several places (among them inside a Jacobian whose
+    /// runs are made side by side), goes on from what it kept to the fit and the traces of one
+    /// run that was never killed, on two threads and on one.
+    #[test]
+    fn a_killed_calibration_resumes_to_the_same_fit() {
+        let (r, m, task) = wall();
+        let on = |threads: usize, store: &mut Log| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| calibrate(&r, &m, &task, &mut Checkpoints::to(store)).unwrap())
+        };
+        let mut whole = Log {
+            every: 40,
+            ..Log::default()
+        };
+        let once = on(2, &mut whole);
+        assert!(once.fit.runs >= 7, "{:?}", once.fit);
+        assert!((once.fit.values[0] - 0.8).abs() < 0.02, "{:?}", once.fit);
+        let stages = |log: &[(String, Option<Vec<u8>>)], name: &str| {
+            log.iter().filter(|(s, _)| s.starts_with(name)).count()
+        };
+        assert!(stages(&whole.log, "evaluation-") >= once.fit.runs);
+        assert!(
+            stages(&whole.log, "evaluation-1.run") > 0,
+            "no run kept in progress"
+        );
+        let n = whole.log.len();
+        for (threads, cut) in [(2, n / 4), (2, n / 2), (1, 3 * n / 4), (2, n - 1)] {
+            let mut left = Log {
+                every: 40,
+                ..Log::default()
+            };
+            for (stage, bytes) in &whole.log[..cut] {
+                match bytes {
+                    Some(b) => left.kept.insert(stage.clone(), b.clone()),
+                    None => left.kept.remove(stage),
+                };
+            }
+            let again = on(threads, &mut left);
+            assert_eq!(again.fit, once.fit, "killed after {cut} of {n} entries");
+            // Debug's text: a trace's NaN (no cell yet) equals itself there.
+            let text = |t: &[ProbeTrace]| format!("{t:?}");
+            assert_eq!(text(&again.before), text(&once.before));
+            assert_eq!(text(&again.after), text(&once.after));
+        }
+        assert_eq!(
+            on(
+                1,
+                &mut Log {
+                    every: 40,
+                    ..Log::default()
+                }
+            )
+            .fit,
+            once.fit
+        );
+    }
 }
