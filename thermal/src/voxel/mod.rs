@@ -3245,6 +3245,33 @@ mod tests {
         assert!(r.balance_error.abs() < 1e-3, "{}", r.balance_error);
     }
 
+    /// The 3-revolution helix on a 100 mm plate `thickness` m thick, a disc or a box, of
+    /// `material` (None: the deposit's).
+    fn helix_on_plate(
+        thickness: f64,
+        disc: bool,
+        material: Option<Material>,
+    ) -> (Vec<Deposit>, VoxelSettings) {
+        let (deps, mut settings) = three_revolutions(100.0);
+        settings.plate.size[2] = thickness;
+        settings.plate.disc = disc;
+        settings.plate.material = material;
+        (deps, settings)
+    }
+
+    /// The largest difference of `f` between run b's points and reference a's, as a share of
+    /// a's largest rise of it above `ambient`.
+    fn worst_of_rise(
+        a: &RunResult,
+        b: &RunResult,
+        ambient: f64,
+        f: fn(&PointResult) -> f64,
+    ) -> f64 {
+        let rise = a.points.iter().map(f).fold(0.0, f64::max) - ambient;
+        let worst = a.points.iter().zip(&b.points);
+        worst.map(|(x, y)| (f(x) - f(y)).abs()).fold(0.0, f64::max) / rise
+    }
+
     /// The plate coarsened away from the metal laid on it (`coarse_plate`) against every cell
     /// of edge dx, on the 3-revolution helix: plates of an odd and an even number of cells, a
     /// box and a disc, of the deposit's material and of its own. Measured: preheats within
@@ -3259,10 +3286,7 @@ mod tests {
             (0.010, false, Some(Material::in718())),
         ];
         for (thickness, disc, material) in cases {
-            let (deps, mut settings) = three_revolutions(100.0);
-            settings.plate.size[2] = thickness;
-            settings.plate.disc = disc;
-            settings.plate.material = material;
+            let (deps, settings) = helix_on_plate(thickness, disc, material);
             let fine = VoxelModel::new(&deps, &settings).unwrap();
             let cut = VoxelModel::new(
                 &deps,
@@ -3275,18 +3299,8 @@ mod tests {
             let (before, after) = (fine.plate_voxels, cut.plate_voxels);
             let (a, b) = (fine.run(&deps).unwrap(), cut.run(&deps).unwrap());
             let ambient = settings.surroundings.ambient_k;
-            let rise =
-                |f: fn(&PointResult) -> f64| a.points.iter().map(f).fold(0.0, f64::max) - ambient;
-            let worst = |f: fn(&PointResult) -> f64| {
-                let d = a
-                    .points
-                    .iter()
-                    .zip(&b.points)
-                    .map(|(x, y)| (f(x) - f(y)).abs());
-                d.fold(0.0, f64::max)
-            };
-            let preheat = worst(|p| p.preheat) / rise(|p| p.preheat);
-            let peak = worst(|p| p.peak) / rise(|p| p.peak);
+            let preheat = worst_of_rise(&a, &b, ambient, |p| p.preheat);
+            let peak = worst_of_rise(&a, &b, ambient, |p| p.peak);
             eprintln!(
                 "plate {thickness} m, disc {disc}: plate cells {before} -> {after}; preheats \
                  within {:.2} % of the rise, peaks {:.2} %; balance {:.1e}",
@@ -3317,10 +3331,7 @@ mod tests {
             (0.010, false, Some(Material::in718())),
         ];
         for (thickness, disc, material) in cases {
-            let (deps, mut settings) = three_revolutions(100.0);
-            settings.plate.size[2] = thickness;
-            settings.plate.disc = disc;
-            settings.plate.material = material;
+            let (deps, mut settings) = helix_on_plate(thickness, disc, material);
             settings.coarse_plate = true;
             let own = VoxelModel::new(&deps, &settings).unwrap();
             let mut every = own.clone();
@@ -3329,18 +3340,8 @@ mod tests {
             let coarse = own.coarse;
             let (a, b) = (every.run(&deps).unwrap(), own.clone().run(&deps).unwrap());
             let ambient = settings.surroundings.ambient_k;
-            let rise =
-                |f: fn(&PointResult) -> f64| a.points.iter().map(f).fold(0.0, f64::max) - ambient;
-            let worst = |f: fn(&PointResult) -> f64| {
-                let d = a
-                    .points
-                    .iter()
-                    .zip(&b.points)
-                    .map(|(x, y)| (f(x) - f(y)).abs());
-                d.fold(0.0, f64::max)
-            };
-            let preheat = worst(|p| p.preheat) / rise(|p| p.preheat);
-            let peak = worst(|p| p.peak) / rise(|p| p.peak);
+            let preheat = worst_of_rise(&a, &b, ambient, |p| p.preheat);
+            let peak = worst_of_rise(&a, &b, ambient, |p| p.peak);
             let updates = |r: &RunResult| match r.cells {
                 Cells::Voxel { updates, .. } => updates as f64,
                 _ => unreachable!("a voxel run"),
