@@ -27,6 +27,13 @@ pub const BASE_BYTES: f64 = 12e6;
 pub const VOXEL_NS_PER_STEP: f64 = 3.2;
 pub const STEP_OVERHEAD_S: f64 = 6.8e-5;
 
+/// What a coarsened plate's block costs a step, against a cell's: it steps once in 3–11 steps
+/// (`thermal::voxel`'s coarse cells at their own rate, docs/PHYSICS.md "The coarse cells at
+/// their own rate"), but its seams with the cells of edge dx are conducted at every step. Fitted
+/// to the GAMMA wall's replay (2026-11-30: the heat 6.9 → 5.5 s with its 13 500 blocks at their
+/// own rate; counted at a third, the estimate fell to 0.91 of the heat's time).
+pub const COARSE_BLOCK_COST: f64 = 0.5;
+
 /// Past [`VOXEL_CACHED`] mean active voxels the step's state no longer stays in the cache (an
 /// AMD EPYC guest's 32 MB L3 here) and a voxel-step takes longer, as the power
 /// [`VOXEL_UNCACHED_GROWTH`] of the mean over it. Fitted to the closed dome R 400 (2026-11-28,
@@ -177,8 +184,9 @@ pub fn estimate(
             };
             let columns = (px / dx).ceil() * (py / dx).ceil() * disc;
             let layers = (pz / dx).round().max(1.0);
-            let plate = match t.coarse_plate {
-                false => columns * layers,
+            // The plate's cells, and of them the coarse blocks (`COARSE_BLOCK_COST` a step).
+            let (plate, blocks) = match t.coarse_plate {
+                false => (columns * layers, 0.0),
                 // Blocks of 8 cells, an odd plate's top layer, and two layers of cells of edge
                 // dx under the first layers' band (`thermal::voxel`'s fine columns).
                 true => {
@@ -195,8 +203,8 @@ pub fn estimate(
                     } else {
                         0.0
                     };
-                    columns * (layers % 2.0) + block_layers * columns / 4.0 - band / 4.0
-                        + 2.0 * band
+                    let blocks = block_layers * columns / 4.0 - band / 4.0;
+                    (columns * (layers % 2.0) + blocks + 2.0 * band, blocks)
                 }
             };
             // The beads' own metal: the grid lays it within some 5 % on the grids measured
@@ -204,7 +212,7 @@ pub fn estimate(
             let metal = thermal::schedule::bead_volume(deposits) / dx.powi(3);
             let cells = plate + metal;
             let steps = voxel_steps(deposits, build_s, stable_step(m, dx));
-            let mean = plate + metal / 2.0;
+            let mean = plate - blocks * (1.0 - COARSE_BLOCK_COST) + metal / 2.0;
             let on_gpu = t.device == thermal::voxel::Device::Gpu;
             let updates = steps * mean;
             let seconds = match on_gpu {
