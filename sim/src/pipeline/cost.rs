@@ -30,8 +30,9 @@ pub const STEP_OVERHEAD_S: f64 = 6.8e-5;
 /// What a coarsened plate's block costs a step, against a cell's: it steps once in 3–11 steps
 /// (`thermal::voxel`'s coarse cells at their own rate, docs/PHYSICS.md "The coarse cells at
 /// their own rate"), but its seams with the cells of edge dx are conducted at every step. Fitted
-/// to the GAMMA wall's replay (2026-11-30: the heat 6.9 → 5.5 s with its 13 500 blocks at their
-/// own rate; counted at a third, the estimate fell to 0.91 of the heat's time).
+/// to the GAMMA wall's replay (2026-11-30: the heat 6.9 → 5.5 s with its blocks, some 13 500
+/// by this estimate's count, at their own rate; counted at a third, the estimate fell to 0.91
+/// of the heat's time).
 pub const COARSE_BLOCK_COST: f64 = 0.5;
 
 /// Past [`VOXEL_CACHED`] mean active voxels the step's state no longer stays in the cache (an
