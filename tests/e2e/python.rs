@@ -17,6 +17,34 @@ fn bounded(seconds: u32, program: &Path) -> Command {
     c
 }
 
+/// `c` without the variables `cargo test` sets for this crate's test binary (CARGO_MANIFEST_DIR,
+/// CARGO_PKG_NAME, …). The pip install below runs cargo again in the same target folder, and
+/// `ring`'s build script reads those names through `rerun-if-env-changed`: seen with this
+/// crate's values there, they made `ring` and the 20 crates of rerun's above it stale, built
+/// again for some 250 s of the test's time (the workspace's build, run after it, built them a
+/// third time). Variables that configure cargo itself (CARGO_HOME, CARGO_NET_*, …) are kept.
+fn without_this_crates_cargo_vars(c: &mut Command) -> &mut Command {
+    for (name, _) in std::env::vars_os() {
+        let Some(name) = name.to_str() else { continue };
+        let per_crate = matches!(
+            name,
+            "CARGO_MANIFEST_DIR"
+                | "CARGO_MANIFEST_PATH"
+                | "CARGO_MANIFEST_LINKS"
+                | "CARGO_CRATE_NAME"
+                | "CARGO_BIN_NAME"
+                | "CARGO_PRIMARY_PACKAGE"
+                | "CARGO_TARGET_TMPDIR"
+                | "OUT_DIR"
+        ) || name.starts_with("CARGO_PKG_")
+            || name.starts_with("CARGO_CFG_");
+        if per_crate {
+            c.env_remove(name);
+        }
+    }
+    c
+}
+
 /// What a run ended by `bounded`'s limit says of it.
 fn timed_out(status: &ExitStatus) -> &'static str {
     match status.code() {
@@ -38,15 +66,17 @@ fn the_package_passes_its_tests() {
     // The README's install command, into this build's target folder so that the engine's
     // crates are compiled once.
     assert!(
-        ok(Command::new(venv.join("bin/pip"))
-            .args([
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-                "./python"
-            ])
-            .env("CARGO_TARGET_DIR", target)
-            .current_dir(root())),
+        ok(
+            without_this_crates_cargo_vars(&mut Command::new(venv.join("bin/pip")))
+                .args([
+                    "install",
+                    "--quiet",
+                    "--disable-pip-version-check",
+                    "./python"
+                ])
+                .env("CARGO_TARGET_DIR", target)
+                .current_dir(root())
+        ),
         "pip install ./python failed"
     );
     // Bounded: a run that hangs (a lost Ctrl-C once left `follow` waiting for data) fails
