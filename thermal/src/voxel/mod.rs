@@ -460,8 +460,8 @@ impl VoxelModel {
             open_device(s)?;
         }
         // The plate: every cell whose centre lies inside it; or, coarsened, every block of
-        // 2 × 2 × 2 cells whose centre does, but under the metal laid on the plate
-        // (`fine_columns`), then the cells left.
+        // 2 × 2 × 2 cells all of whose cells' centres do, but under the metal laid on the plate
+        // (`fine_columns`), then the cells left (the rim of a disc, a box's odd column).
         let k_plate = (p.size[2] / dx).round() as usize;
         let z0 = ((0.0 - lo[2]) / dx).round() as usize; // first cell above the plate
         let bottom_z = z0.saturating_sub(k_plate);
@@ -484,8 +484,11 @@ impl VoxelModel {
                 let top = iz + 2 == z0;
                 for by in 0..m.dims[1] / 2 {
                     for bx in 0..m.dims[0] / 2 {
-                        let c = m.centre(2 * bx, 2 * by, iz).map(|x| x + dx / 2.0);
-                        if inside(c) && !(b + 1 == layers && fine.contains(&(bx, by))) {
+                        // Whole blocks only: a block whose centre alone was inside made a box
+                        // plate of an odd number of cells across a cell wider on one side.
+                        let whole =
+                            (0..4).all(|q| inside(m.centre(2 * bx + q % 2, 2 * by + q / 2, iz)));
+                        if whole && !(b + 1 == layers && fine.contains(&(bx, by))) {
                             let corner = [2 * bx, 2 * by, iz];
                             m.add_coarse(corner, s.surroundings.ambient_k, b == 0, top);
                         }
@@ -2941,7 +2944,7 @@ mod tests {
         let cases = [
             (100.0, None, false),
             (102.0, Some(Material::in718()), false),
-            (102.0, Some(Material::in718()), true),
+            (101.0, Some(Material::in718()), true),
         ];
         for (mm, plate, coarse_plate) in cases {
             let (deps, mut settings) = three_revolutions(mm);
@@ -3027,7 +3030,7 @@ mod tests {
         let cases = [
             (200.0, None, false),
             (202.0, Some(Material::in718()), false),
-            (302.0, Some(Material::in718()), true),
+            (301.0, Some(Material::in718()), true),
         ];
         for (mm, plate, coarse_plate) in cases {
             let (deps, mut settings) = three_revolutions(mm);
