@@ -20,9 +20,9 @@ fn bounded(seconds: u32, program: &Path) -> Command {
 /// `c` without the variables `cargo test` sets for this crate's test binary (CARGO_MANIFEST_DIR,
 /// CARGO_PKG_NAME, …). The pip install below runs cargo again in the same target folder, and
 /// `ring`'s build script reads those names through `rerun-if-env-changed`: seen with this
-/// crate's values there, they made `ring` and the 20 crates of rerun's above it stale, built
-/// again for some 250 s of the test's time (the workspace's build, run after it, built them a
-/// third time). Variables that configure cargo itself (CARGO_HOME, CARGO_NET_*, …) are kept.
+/// crate's values there, they made `ring` and the 20 crates above it (rustls, tonic, rerun's)
+/// stale, built again for some 250 s of the test's time (and once more by the workspace's
+/// next build outside the test). Variables that configure cargo itself (CARGO_HOME, CARGO_NET_*, …) are kept.
 fn without_this_crates_cargo_vars(c: &mut Command) -> &mut Command {
     for (name, _) in std::env::vars_os() {
         let Some(name) = name.to_str() else { continue };

@@ -491,13 +491,13 @@ impl VoxelModel {
                         // staircase either way: a block is taken where its centre is inside,
                         // as cells of edge dx along all of it cost more than they read
                         // (docs/PHYSICS.md "A coarsened plate").
-                        let whole = match p.disc {
+                        let take = match p.disc {
                             true => inside(m.centre(2 * bx, 2 * by, iz).map(|x| x + dx / 2.0)),
                             false => {
                                 (0..4).all(|q| inside(m.centre(2 * bx + q % 2, 2 * by + q / 2, iz)))
                             }
                         };
-                        if whole && !(b + 1 == layers && fine.contains(&(bx, by))) {
+                        if take && !(b + 1 == layers && fine.contains(&(bx, by))) {
                             let corner = [2 * bx, 2 * by, iz];
                             m.add_coarse(corner, s.surroundings.ambient_k, b == 0, top);
                         }
