@@ -85,9 +85,15 @@ impl<'a> Checkpoints<'a> {
     pub fn save<T: Serialize + ?Sized>(&mut self, stage: &str, state: &T) {
         let spent_s = self.spent_s();
         if let Some(store) = self.store.as_mut() {
-            // Serialising plain data into a growing vector fails only where a type cannot be
-            // written (a map with keys postcard cannot take): none of ours.
-            if let Ok(bytes) = postcard::to_stdvec(&(spent_s, state)) {
+            // Serialising plain data fails only where a type cannot be written (a map with
+            // keys postcard cannot take): none of ours. The bytes are counted first and the
+            // vector made that long: grown by doubling it held up to twice a state's bytes, and
+            // a `follow`'s state is every member's field (docs/PERFORMANCE.md "`follow`'s
+            // memory").
+            let kept = (spent_s, state);
+            let bytes = postcard::experimental::serialized_size(&kept)
+                .and_then(|n| postcard::to_extend(&kept, Vec::with_capacity(n)));
+            if let Ok(bytes) = bytes {
                 store.save(stage, &bytes);
             }
         }

@@ -23,7 +23,7 @@ use crate::pipeline::calibrate::Range;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{BELOW_AMBIENT_K, Parameter, Replay};
 use crate::pipeline::twin::asrun::MachineRow;
-use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, Progress, Unit};
+use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, KeptOwned, Unit};
 use crate::pipeline::twin::{Twin, Uncertain};
 use crate::scenario::replay::{Live, MachineLog, Probes, ReplayScenario, Signal};
 use merge::{Merge, Next};
@@ -335,10 +335,8 @@ pub fn run(
     let in_rows = live.machine_log.as_ref().filter(|m| m.file.is_none());
     let layout = Layout::of(&p, in_rows);
     let (mut follower, mut probe_mark, mut counters) =
-        match ck.load::<(Progress, Mark, Counters)>("follow") {
-            Some((progress, mark, counters)) => {
-                (Follower::resume(twin, &r.deps, progress), mark, counters)
-            }
+        match ck.load::<(KeptOwned, Mark, Counters)>("follow") {
+            Some((kept, mark, counters)) => (Follower::resume(twin, &r.deps, kept), mark, counters),
             None => (
                 Follower::new(twin, &r.deps, p.points.len()),
                 Mark::default(),
@@ -441,13 +439,7 @@ pub fn run(
             )?;
             // Kept after a row, with where the files are read to after it: a resumed run
             // reads on from the next row whatever the looks were.
-            ck.save_if_due("follow", || {
-                (
-                    follower.checkpoint().clone(),
-                    probe_mark.clone(),
-                    counters.clone(),
-                )
-            });
+            ck.save_if_due("follow", || (follower.kept(), &probe_mark, &counters));
             if last_rewrite.elapsed() >= REWRITE {
                 write(
                     &mut dir, &follower, &names, &priors, &counters, &clock, "running",

@@ -333,10 +333,10 @@ pub enum Unit {
     Millimetre,
 }
 
-/// What a follow changes as it goes, beside the twin: what a checkpoint keeps.
+/// What a follow changes as it goes, beside the twin's state; a checkpoint keeps both
+/// ([`Kept`]).
 #[derive(Clone, Serialize, Deserialize)]
 pub struct Progress {
-    pub twin: super::State,
     next_moment: usize,
     /// The last row fed: its time and readings (°C).
     last_row: Option<(f64, Vec<Option<f64>>)>,
@@ -361,6 +361,19 @@ pub struct Progress {
     pub asrun: Option<AsRun>,
 }
 
+/// What a checkpoint keeps: the twin's state and the follow's progress. Written from borrows
+/// ([`KeptRef`], [`Follower::kept`]), read back owned ([`KeptOwned`]): one layout, and the
+/// members serialised where they are, not copied first (two copies of every member's field
+/// were most of `follow`'s peak memory: docs/PERFORMANCE.md "`follow`'s memory").
+#[derive(Serialize, Deserialize)]
+pub struct Kept<S, P> {
+    twin: S,
+    progress: P,
+}
+
+pub type KeptRef<'a> = Kept<&'a super::State, &'a Progress>;
+pub type KeptOwned = Kept<super::State, Progress>;
+
 /// A build followed: the twin, the program's layers and the moments forecasts are made at.
 pub struct Follower<'a> {
     pub twin: Twin<'a>,
@@ -377,7 +390,6 @@ impl<'a> Follower<'a> {
         let learned = vec![Learned::new(twin.settings.reading_sd_k); classes];
         let progress = Progress {
             learned,
-            twin: twin.state.clone(),
             next_moment: 0,
             last_row: None,
             last_seen: vec![None; probes],
@@ -391,12 +403,16 @@ impl<'a> Follower<'a> {
             back_in_time: 0,
             asrun: None,
         };
-        Follower::resume(twin, deps, progress)
+        Follower::from(twin, deps, progress)
     }
 
-    /// A follow that goes on from `progress` (a checkpoint).
-    pub fn resume(mut twin: Twin<'a>, deps: &[Deposit], progress: Progress) -> Follower<'a> {
-        twin.state = progress.twin.clone();
+    /// A follow that goes on from a checkpoint.
+    pub fn resume(mut twin: Twin<'a>, deps: &[Deposit], kept: KeptOwned) -> Follower<'a> {
+        twin.state = kept.twin;
+        Follower::from(twin, deps, kept.progress)
+    }
+
+    fn from(mut twin: Twin<'a>, deps: &[Deposit], progress: Progress) -> Follower<'a> {
         if let Some(a) = &progress.asrun {
             twin.reschedule(a.deps.clone());
         }
@@ -461,10 +477,12 @@ impl<'a> Follower<'a> {
         self.moments.extend(rest);
     }
 
-    /// The state to keep (the twin's taken into it).
-    pub fn checkpoint(&mut self) -> &Progress {
-        self.progress.twin = self.twin.state.clone();
-        &self.progress
+    /// The state to keep, borrowed.
+    pub fn kept(&self) -> KeptRef<'_> {
+        Kept {
+            twin: &self.twin.state,
+            progress: &self.progress,
+        }
     }
 
     /// The build time of the last row fed, s.

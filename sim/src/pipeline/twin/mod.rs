@@ -691,6 +691,64 @@ mod tests {
         }
     }
 
+    /// A follow kept part-way (its state written from borrows, `Follower::kept`) and read back
+    /// owned goes on as the follow that was not stopped: the same forecasts, analyses and
+    /// learned values to the bit. The command's resume test cannot tell a state that no longer
+    /// reads (its stage starts again, to the same files); this one can.
+    #[test]
+    fn a_kept_follow_read_back_goes_on_as_the_one_not_stopped() {
+        let r = wall();
+        let (deps, mut truth) = r
+            .start(&r.values.with(&[Parameter::Efficiency], &[0.6]))
+            .unwrap();
+        let settings = Settings {
+            ensemble: 4,
+            forecast_every_s: 5.0,
+            horizons_s: vec![5.0],
+            ..Settings::default()
+        };
+        let prior = Uncertain {
+            parameter: Parameter::Efficiency,
+            range: Range {
+                low: 0.3,
+                high: 0.95,
+            },
+            mean: 0.8,
+            sd: 0.1,
+        };
+        let twin = || Twin::new(&r, settings.clone(), vec![prior]).unwrap();
+        let rows: Vec<(f64, Vec<Option<f64>>)> = (1..=60)
+            .map(|k| {
+                let t = 0.5 * k as f64;
+                replay::advance(&mut truth, &deps, t).unwrap();
+                let row = r
+                    .probes
+                    .iter()
+                    .map(|&p| probe_k(&truth, p, 2e-3).map(|k| k - C));
+                (t, row.collect())
+            })
+            .collect();
+        let mut whole = Follower::new(twin(), &r.deps, 2);
+        let mut bytes = Vec::new();
+        for (k, (t, row)) in rows.iter().enumerate() {
+            whole.feed(*t, row).unwrap();
+            if k == 29 {
+                bytes = postcard::to_stdvec(&whole.kept()).unwrap();
+            }
+        }
+        let kept: follow::KeptOwned = postcard::from_bytes(&bytes).unwrap();
+        let mut resumed = Follower::resume(twin(), &r.deps, kept);
+        for (t, row) in &rows[30..] {
+            resumed.feed(*t, row).unwrap();
+        }
+        assert!(whole.progress.forecasts.len() > 5);
+        let json = |f: &Follower| {
+            let learned: Vec<(f64, f64)> = f.twin.parameters().iter().map(|p| (p.1, p.2)).collect();
+            serde_json::to_string(&(&f.progress, learned, f.twin.state.analyses)).unwrap()
+        };
+        assert_eq!(json(&whole), json(&resumed));
+    }
+
     /// An identical-twin experiment, the standard check of a filter: readings made by the
     /// model itself at efficiency 0.55 (the truth), a twin whose prior believes 0.8 ± 0.1.
     /// The twin's efficiency moves toward the truth and its 10 s forecasts come nearer the
