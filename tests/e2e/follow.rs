@@ -487,6 +487,7 @@ fn follow_killed_then_resumed_writes_what_one_run_does() {
     // Killed 2 s after its first checkpoint while the logger wrote 50 rows a second for 6.4 s:
     // part-way, and the resumed run went on from there.
     assert!(text.contains("resuming follow"), "{text}");
+    assert!(!text.contains("did not read"), "{text}");
     let v = json(&out.join("follow.json"));
     assert_eq!(v["rows"], 277);
     for f in ["forecasts.csv", "assimilation.csv", "alarms.csv"] {

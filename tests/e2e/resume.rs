@@ -37,7 +37,10 @@ fn once_and_resumed(dir: &Path, args: &[&str], abort: &str) -> (PathBuf, PathBuf
     let o = waamtwin(&again, &resumed, None);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
+    // Resumed, not started again: a state that no longer reads restarts its stage to the
+    // same files, and only this line tells.
     assert!(err.contains("resuming"), "{err}");
+    assert!(!err.contains("did not read"), "{err}");
     assert!(
         !resumed.join("checkpoint").exists(),
         "checkpoints left after the run"

@@ -274,6 +274,15 @@ impl Store for Folder {
         Some(bytes)
     }
 
+    fn unreadable(&mut self, stage: &str, why: &str) {
+        eprintln!(
+            "warning: {} did not read as the state of stage {stage} ({why}): the stage starts \
+             again. This version wrote it for this work, so this is a bug; the outputs are \
+             those of a run that was not resumed",
+            self.file(stage).display()
+        );
+    }
+
     fn save(&mut self, stage: &str, bytes: &[u8]) {
         match self.write(stage, bytes) {
             Ok(()) => {

@@ -27,6 +27,11 @@ pub trait Store {
     fn save(&mut self, stage: &str, bytes: &[u8]);
     /// Forget `stage` (its work is done and kept under another name).
     fn remove(&mut self, stage: &str);
+    /// The state kept under `stage` did not read as what the stage keeps (`why`, the
+    /// decoder's words): the stage starts again, to the same outputs, so only this tells a
+    /// resume from a restart. The store checked the version and the work the state was kept
+    /// for, so this is a bug; a store says so where a person or a test can see it.
+    fn unreadable(&mut self, stage: &str, why: &str);
 }
 
 /// A run's checkpoints: to a [`Store`], or off. Every state is kept with the wall-clock
@@ -72,13 +77,22 @@ impl<'a> Checkpoints<'a> {
 
     /// The state kept under `stage`, if there is one and it reads as a `T`. The store checked
     /// that it was written by this version for this work; one that still does not read (which
-    /// that check makes a bug) is not used: the stage starts again.
+    /// that check makes a bug) is not used, the store is told ([`Store::unreadable`]), and the
+    /// stage starts again.
     pub fn load<T: DeserializeOwned>(&mut self, stage: &str) -> Option<T> {
-        let bytes = self.store.as_mut()?.load(stage)?;
-        let (spent_s, state): (f64, T) = postcard::from_bytes(&bytes).ok()?;
-        self.before_s = spent_s;
-        self.started = Instant::now();
-        Some(state)
+        let store = self.store.as_mut()?;
+        let bytes = store.load(stage)?;
+        match postcard::from_bytes::<(f64, T)>(&bytes) {
+            Ok((spent_s, state)) => {
+                self.before_s = spent_s;
+                self.started = Instant::now();
+                Some(state)
+            }
+            Err(e) => {
+                store.unreadable(stage, &e.to_string());
+                None
+            }
+        }
     }
 
     /// Keep `state` under `stage` now.
@@ -164,6 +178,7 @@ mod tests {
     struct Memory {
         kept: BTreeMap<String, Vec<u8>>,
         saves: usize,
+        unreadable: Vec<String>,
     }
 
     impl Store for Memory {
@@ -180,6 +195,24 @@ mod tests {
         fn remove(&mut self, stage: &str) {
             self.kept.remove(stage);
         }
+        fn unreadable(&mut self, stage: &str, _why: &str) {
+            self.unreadable.push(stage.into());
+        }
+    }
+
+    /// A state that does not read as the stage's is not used, and the store hears of it: the
+    /// stage's work is done again.
+    #[test]
+    fn a_state_that_does_not_read_is_told_and_its_stage_starts_again() {
+        let mut m = Memory::default();
+        let mut ck = Checkpoints::to(&mut m);
+        ck.save("before", &7u8);
+        let (made, _) = ck
+            .stage("before", |_, _| Ok::<_, ()>(vec![1.0f64, 2.0]))
+            .unwrap();
+        assert_eq!(made, vec![1.0, 2.0]);
+        assert_eq!(m.unreadable, vec!["before".to_string()]);
+        assert!(m.kept.contains_key("before"));
     }
 
     #[test]

@@ -63,9 +63,9 @@ struct Counters {
     lag_n: usize,
     /// Data times at which a reading was fed more than `BEHIND_S` after it was read.
     behind_at_s: Vec<f64>,
-    /// What the OPC UA subscription met (repeats, incomplete rows, losses, reconnects).
+    /// What the OPC UA subscription met, where the readings come from one.
     #[serde(default)]
-    opcua: serde_json::Value,
+    opcua: Option<OpcuaCounts>,
     /// Where the machine log's own file is read to, what was fed of it.
     #[serde(default)]
     machine_mark: Mark,
@@ -73,6 +73,20 @@ struct Counters {
     /// (it had stalled): dropped.
     #[serde(default)]
     machine_late: usize,
+}
+
+/// What the OPC UA subscription met (`opcua::Subscription`), for follow.json. Typed plain data,
+/// here rather than in the feature's module, so that `Counters` read back from a checkpoint in
+/// any build: postcard reads no self-describing value (a `serde_json::Value` here made every
+/// `follow` checkpoint unreadable, its resume a silent restart, until 2026-11-30).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct OpcuaCounts {
+    /// Values that came again (at or before a row already handed on), not fed.
+    pub repeated: usize,
+    /// Rows handed on with a probe missing (its node sent nothing at that time).
+    pub rows_incomplete: usize,
+    pub lost: Vec<String>,
+    pub reconnects: usize,
 }
 
 /// Where the readings come from: the probe file as the logger writes it, or the cell's OPC UA
@@ -139,7 +153,7 @@ impl Source {
                 let (rows, said) = sub
                     .look()
                     .map_err(|e| Error::failure(format!("OPC UA {name}: {e}")))?;
-                c.opcua = serde_json::to_value(&sub.counts).unwrap_or_default();
+                c.opcua = Some(sub.counts.clone());
                 Ok((Brought::Rows(rows), said))
             }
         }

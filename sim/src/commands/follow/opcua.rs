@@ -52,18 +52,7 @@ pub struct Subscription {
     pending: BTreeMap<i64, (Instant, Vec<Option<f64>>)>,
     /// The latest row handed on.
     handed: Option<i64>,
-    pub counts: Counts,
-}
-
-/// What the subscription met, for follow.json.
-#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
-pub struct Counts {
-    /// Values that came again (at or before a row already handed on), not fed.
-    pub repeated: usize,
-    /// Rows handed on with a probe missing (its node sent nothing at that time).
-    pub rows_incomplete: usize,
-    pub lost: Vec<String>,
-    pub reconnects: usize,
+    pub counts: super::OpcuaCounts,
 }
 
 /// A row handed on: build time, s, and a value per probe.
@@ -120,7 +109,7 @@ impl Subscription {
             probes,
             pending: BTreeMap::new(),
             handed: None,
-            counts: Counts::default(),
+            counts: super::OpcuaCounts::default(),
         }
     }
 

@@ -386,6 +386,9 @@ mod tests {
             self.kept.remove(stage);
             self.log.push((stage.to_string(), None));
         }
+        fn unreadable(&mut self, stage: &str, why: &str) {
+            panic!("the state kept under {stage} does not read: {why}");
+        }
     }
 
     /// The doc example's wall, "measured" at 80 % efficiency and 30 W/(m² K).
