@@ -214,8 +214,18 @@ impl Material {
         table[i] + f * (table[i + 1] - table[i])
     }
 
+    /// h(T); above the tables' top it runs on at their last c_p, the inverse of
+    /// [`Material::temperature`] there. Clamped there, it gave a node above 4 000 K no heat
+    /// capacity: the thin wall's implicit step then took it for its neighbours' temperature, its
+    /// heat never left, and it read 3 700–4 100 °C for the rest of the run (docs/PHYSICS.md
+    /// "Above the tables' top").
     pub fn enthalpy(&self, t: f64) -> f64 {
-        Material::at(&self.h, t)
+        let last = self.h.len() - 1;
+        let top = last as f64 * TABLE_STEP;
+        match t > top {
+            true => self.h[last] + (t - top) * self.cp[last],
+            false => Material::at(&self.h, t),
+        }
     }
 
     pub fn conductivity(&self, t: f64) -> f64 {
@@ -351,6 +361,19 @@ fn interpolate(table: &[(f64, f64)], t: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Above the tables' top h(T) goes on at the last c_p, so that T(h(T)) = T and the
+    /// apparent heat stays c_p: a node there keeps a heat capacity and cools.
+    #[test]
+    fn above_the_tables_h_and_t_are_inverse_and_the_capacity_stays() {
+        let m = Material::g3si();
+        for t in [3990.5, 4000.0, 4174.0, 6000.0] {
+            let back = m.temperature(m.enthalpy(t));
+            assert!((back - t).abs() < 1e-6, "{t} K → {back} K");
+            let c = m.apparent_heat(t);
+            assert!((c - m.cp[m.cp.len() - 1]).abs() < 1e-6 * c, "{t} K: {c}");
+        }
+    }
 
     #[test]
     fn eurocode_values() {

@@ -704,6 +704,49 @@ fn tracks_with_travel_between_them_on_both_models() {
     );
 }
 
+/// A track whose arc heats the node it lays past the material tables' top (4 000 K: a short,
+/// slow, hot track; the thin wall's nodes reach 3 600–3 900 °C under it) cools like the rest
+/// once the arc is off. Before h(T) ran on above the tables, the thin wall gave such a node no
+/// heat capacity, and it held 3 901 °C for good while its neighbours cooled to 220–270 °C.
+#[test]
+fn metal_heated_past_the_tables_cools_when_the_arc_is_off() {
+    let (n, len, h) = (20, 0.04, 1.5e-3);
+    let deps: Vec<Deposit> = (0..n)
+        .map(|k| {
+            let arc = 0.4;
+            Deposit {
+                position: [-len / 2.0 + len * (k + 1) as f64 / n as f64, 0.0, h],
+                time: arc * (k + 1) as f64,
+                arc_time: arc,
+                heat: 1600.0 * arc,
+                width: 4e-3,
+                height: h,
+                axis: [0.0, 0.0, 1.0],
+                support: None,
+                start: (k == 0).then_some([-len / 2.0, 0.0, h]),
+                drop: None,
+            }
+        })
+        .collect();
+    for model in all_models(Material::g3si()) {
+        let mut run = model.start(&deps).unwrap();
+        let mut hottest = 0.0f64;
+        for i in 0..n {
+            run.deposit(i, 0.0).unwrap();
+            hottest = hottest.max(run.temperature_of(i));
+        }
+        run.cool(10.0).unwrap();
+        let after: Vec<f64> = (0..n).map(|i| run.temperature_of(i) - 273.15).collect();
+        let top = after.iter().copied().fold(f64::MIN, f64::max);
+        assert!(
+            top < 500.0,
+            "{}: 10 s after the arc, the track at {after:.0?} °C (hottest under the arc {:.0} °C)",
+            model.name(),
+            hottest - 273.15
+        );
+    }
+}
+
 /// `quench` leaves every laid cell and the plate at ambient with the clock unmoved, books the
 /// heat it took out (the energy balance still closes), and the run carries on from there: a
 /// deposit laid on the quenched part reads a cooler substrate than on the part as it was (the
