@@ -155,7 +155,8 @@ fn a_bad_toolpath_line_is_named() {
 /// (replay.json: `metal_mm3` within 15 % of `beads_mm3`, 336 of 320 mm³ measured, no warning); the same track with
 /// its z half a bead low (a logger's offset) lays none of it, and the replay says so on stderr
 /// with the two volumes and the keys to look at, instead of heating a part that is not there,
-/// and replay.json's `warnings` holds it.
+/// and replay.json's `warnings` holds it. Logged 500 mm up (the machine's frame), it is laid on
+/// the plate and said, with the offset.
 #[test]
 fn a_track_laid_inside_the_plate_is_named() {
     let dir = scratch("replay_inside_plate");
@@ -205,6 +206,15 @@ fn a_track_laid_inside_the_plate_is_named() {
         assert!(err.contains(needle), "{needle}: {err}");
     }
     assert_eq!(kinds, ["metal_off"]);
+    // The same track logged in a frame whose plate top is at z = 500 mm: laid on the plate all
+    // the same (the metal the beads hold), and said, with the offset that seats it.
+    let (laid, beads, err, kinds) = track("machine_frame", 502.0);
+    assert_eq!(beads, 320.0);
+    assert!((laid / beads - 1.0).abs() < 0.15, "{laid} of {beads} mm³");
+    for needle in ["up to 502.0 mm above its top", "z_offset_mm = -500.0"] {
+        assert!(err.contains(needle), "{needle}: {err}");
+    }
+    assert_eq!(kinds, ["floating_path"]);
 }
 
 /// The GAMMA wall calibrated on the first half of its build and judged on the second, as

@@ -18,31 +18,104 @@ use thermal::schedule::{Deposit, arc_lengths, bead_volume};
 /// (`kind`: thermal.json's and replay.json's `warnings`, a study's summary.csv).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
-    /// The function that found it: `coarse_deposits`, `coarse_voxels` or `metal_off`.
+    /// The function that found it: `coarse_deposits`, `coarse_voxels`, `floating_path` or
+    /// `metal_off`.
     pub kind: &'static str,
     pub line: String,
 }
 
 /// The warnings a run of `deps` on the model `t` sets up earns before it starts: the thin wall's
 /// deposits against its nodes, the voxel edge against the beads' height (named `key`:
-/// `thermal.voxel_mm`, or `live.voxel_mm` where the twin has its own grid).
+/// `thermal.voxel_mm`, or `live.voxel_mm` where the twin has its own grid), and on either a path
+/// laid far above the plate ([`floating`]).
 pub fn before_run(t: &ThermalSettings, deps: &[Deposit], key: &str) -> Vec<Warning> {
-    match t.model {
-        ThermalModel::ThinWall => coarse_deposits(deps, t.node_m)
-            .map(|c| Warning {
-                kind: "coarse_deposits",
-                line: c.line(),
-            })
-            .into_iter()
-            .collect(),
-        ThermalModel::Voxel => coarse_voxels(deps, t.voxel_m)
-            .map(|c| Warning {
-                kind: "coarse_voxels",
-                line: c.line(key),
-            })
-            .into_iter()
-            .collect(),
+    let grid = match t.model {
+        ThermalModel::ThinWall => coarse_deposits(deps, t.node_m).map(|c| Warning {
+            kind: "coarse_deposits",
+            line: c.line(),
+        }),
+        ThermalModel::Voxel => coarse_voxels(deps, t.voxel_m).map(|c| Warning {
+            kind: "coarse_voxels",
+            line: c.line(key),
+        }),
+    };
+    let path = floating(deps).map(|f| Warning {
+        kind: "floating_path",
+        line: f.line(),
+    });
+    grid.into_iter().chain(path).collect()
+}
+
+/// Deposits laid on nothing but the plate with their path points far above its top (z = 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Floating {
+    pub deposits: usize,
+    /// The highest of their path points (the bead's top), m.
+    pub highest_m: f64,
+    /// The first of them: its path point's height and its bead's, m.
+    pub first_top_m: f64,
+    pub first_height_m: f64,
+}
+
+/// A bead on the plate whose bottom lies more than this many of its heights, and more than
+/// [`FLOATING_MIN_M`], above the plate's top is reported: the ORNL event series' layers, whose
+/// logged z wanders ±2 mm, lie within a layer (2.31 mm) of where they are laid.
+const FLOATING_HEIGHTS: f64 = 5.0;
+const FLOATING_MIN_M: f64 = 5e-3;
+
+impl Floating {
+    /// A warning for the terminal: what the models make of it and the offset that seats the
+    /// first of them on the plate.
+    pub fn line(&self) -> String {
+        let offset = -(self.first_top_m - self.first_height_m) * 1e3;
+        format!(
+            "warning: {} deposits lie on nothing but the plate with their path points up to \
+             {:.1} mm above its top (z = 0): both heat models lay such a bead on the plate, \
+             the first {:.1} mm below its path. A path in the machine's frame puts the plate \
+             elsewhere: [toolpath] z_offset_mm = {offset:.1} (added to what is set) seats the \
+             first of them on the plate, its bead's top at {:.2} mm",
+            self.deposits,
+            self.highest_m * 1e3,
+            (self.first_top_m - self.first_height_m) * 1e3,
+            self.first_height_m * 1e3
+        )
     }
+}
+
+/// The deposits of `deps` laid on the plate (no support) whose beads' bottoms lie more than
+/// [`FLOATING_HEIGHTS`] bead heights (and [`FLOATING_MIN_M`]) above its top, if any. A torch
+/// climbing along its build direction (a strut's column, `thermal::voxel`'s rule: its segment
+/// within 26° of the axis) grows its metal from the plate and is left out, as are drops.
+pub fn floating(deps: &[Deposit]) -> Option<Floating> {
+    let climbs = |i: usize| {
+        let d = &deps[i];
+        let from = match (d.start, i.checked_sub(1)) {
+            (Some(s), _) => s,
+            (None, Some(j)) => deps[j].position,
+            (None, None) => return false,
+        };
+        let seg: [f64; 3] = std::array::from_fn(|k| d.position[k] - from[k]);
+        let len = seg.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let along: f64 = (0..3).map(|k| seg[k] * d.axis[k]).sum();
+        len > 0.0 && along.abs() > 0.9 * len
+    };
+    let mut found: Option<Floating> = None;
+    for (i, d) in deps.iter().enumerate() {
+        let fall = d.position[2] - d.height;
+        let far = fall > (FLOATING_HEIGHTS * d.height).max(FLOATING_MIN_M);
+        if d.support.is_some() || d.drop.is_some() || !far || climbs(i) {
+            continue;
+        }
+        let f = found.get_or_insert(Floating {
+            deposits: 0,
+            highest_m: d.position[2],
+            first_top_m: d.position[2],
+            first_height_m: d.height,
+        });
+        f.deposits += 1;
+        f.highest_m = f.highest_m.max(d.position[2]);
+    }
+    found
 }
 
 /// The deposits longer than a node should be.
@@ -228,7 +301,7 @@ pub fn metal(result: &RunResult, deps: &[Deposit]) -> Option<Metal> {
 
 #[cfg(test)]
 mod tests {
-    use super::{Metal, coarse_deposits, coarse_voxels};
+    use super::{Metal, coarse_deposits, coarse_voxels, floating};
     use thermal::schedule::{Deposit, helix};
 
     /// Laid metal under half or over twice the beads' is reported, each with its cause; within
@@ -283,6 +356,44 @@ mod tests {
             .collect();
         assert_eq!(coarse_voxels(&drops, 4e-3), None);
         assert_eq!(coarse_voxels(&[], 4e-3), None);
+    }
+
+    /// A path laid on the plate is not reported; the same path 500 mm up (a log in the
+    /// machine's frame) is, its first revolution (on nothing but the plate) counted and the
+    /// offset that seats it given; a strut's column climbing from the plate is not.
+    #[test]
+    fn a_path_far_above_the_plate_is_reported() {
+        let on_plate = helix(0.025, 40, 3, 2e-3, 5e-3, 10e-3, 1700.0);
+        assert_eq!(floating(&on_plate), None);
+        let up: Vec<Deposit> = on_plate
+            .iter()
+            .map(|d| Deposit {
+                position: [d.position[0], d.position[1], d.position[2] + 0.5],
+                start: d.start.map(|s| [s[0], s[1], s[2] + 0.5]),
+                ..*d
+            })
+            .collect();
+        let f = floating(&up).expect("reported");
+        let unsupported = up.iter().filter(|d| d.support.is_none()).count();
+        assert_eq!(f.deposits, unsupported);
+        assert!(unsupported >= 40, "{unsupported}");
+        let offset = -(up[0].position[2] - up[0].height) * 1e3;
+        assert!((offset + 500.0).abs() < 2.0, "{offset}");
+        let line = f.line();
+        assert!(
+            line.contains(&format!("z_offset_mm = {offset:.1}")) && line.contains("(z = 0)"),
+            "{line}"
+        );
+        // A column of 2 mm deposits climbing 40 mm straight up from the plate.
+        let strut: Vec<Deposit> = (0..20)
+            .map(|k| Deposit {
+                position: [0.0, 0.0, 2e-3 * (k + 1) as f64],
+                start: (k == 0).then_some([0.0, 0.0, 0.0]),
+                support: None,
+                ..on_plate[0]
+            })
+            .collect();
+        assert_eq!(floating(&strut), None);
     }
 
     /// A helix of 8 deposits a revolution at R 25 mm (19.1 mm chords) is reported against 3 mm
