@@ -8,7 +8,8 @@
 //! against the metal the beads hold ([`metal`]): a path inside the plate, or beads thinner than
 //! half a voxel, lay none, and the run heats a part that is not there; and its edge is held
 //! against the beads' height ([`coarse_voxels`]): a cell much taller than a layer lays the
-//! layers in lumps.
+//! layers in lumps. On either model, beads on nothing but the plate far above its top
+//! ([`floating`]) are laid on the plate all the same: a logged path in the machine's frame.
 
 use crate::pipeline::params::{ThermalModel, ThermalSettings};
 use thermal::run::{Cells, RunResult};
@@ -101,7 +102,8 @@ pub fn floating(deps: &[Deposit]) -> Option<Floating> {
     };
     let mut found: Option<Floating> = None;
     for (i, d) in deps.iter().enumerate() {
-        let fall = d.position[2] - d.height;
+        // The bead's bottom above the plate's top: its height runs along its build direction.
+        let fall = d.position[2] - d.height * d.axis[2];
         let far = fall > (FLOATING_HEIGHTS * d.height).max(FLOATING_MIN_M);
         if d.support.is_some() || d.drop.is_some() || !far || climbs(i) {
             continue;
