@@ -5,8 +5,8 @@
 use crate::error::{Error, Result};
 use crate::part::load_part;
 use crate::pipeline::cost::{
-    BASE_BYTES, Estimate, REPLAY_DEPOSIT_BYTES, bytes, estimate, plan_bytes, plan_vertices_to_fit,
-    voxel_to_fit,
+    BASE_BYTES, Estimate, REPLAY_DEPOSIT_BYTES, RUN_DEPOSIT_BYTES, bytes, estimate, plan_bytes,
+    plan_vertices_to_fit, voxel_to_fit,
 };
 use crate::pipeline::deposition::material;
 use crate::pipeline::params::{Material, ThermalModel, ThermalSettings};
@@ -56,8 +56,8 @@ pub struct Keeps {
     /// `follow` finds with fewer than two rows).
     pub readings: usize,
     /// The deposits of a logged path the command holds besides its model's cells
-    /// ([`REPLAY_DEPOSIT_BYTES`] each, set by [`check_replay`]; 0 for a planned part, whose
-    /// points the fitted constants hold).
+    /// ([`REPLAY_DEPOSIT_BYTES`] each, and [`RUN_DEPOSIT_BYTES`] in each further copy; set by
+    /// [`check_replay`]; 0 for a planned part, whose points the fitted constants hold).
     pub deposits: usize,
 }
 
@@ -181,8 +181,10 @@ fn weigh(
     if keeps.recorded {
         e.bytes += crate::pipeline::cost::recording_bytes(deposits.len(), keeps.frames);
     }
+    // A logged path's deposits once, and their per-run share in every further copy.
+    let further = (keeps.copies - 1.0).max(0.0);
     e.bytes += crate::pipeline::cost::READING_BYTES * keeps.readings as f64
-        + REPLAY_DEPOSIT_BYTES * keeps.deposits as f64;
+        + (REPLAY_DEPOSIT_BYTES + RUN_DEPOSIT_BYTES * further) * keeps.deposits as f64;
     e
 }
 

@@ -347,6 +347,15 @@ pub const RECORDED_BYTES_PER_POINT_FRAME: f64 = 300.0;
 /// first").
 pub const REPLAY_DEPOSIT_BYTES: f64 = 800.0;
 
+/// What each further copy of a logged path's run holds per deposit beside its cells, bytes (its
+/// points, its laid lists, its own share of the schedule): a command that keeps many copies (a
+/// `follow`'s members and their forecasts, a calibration's kept runs) holds them in each.
+/// Measured on the ORNL pad's twin (10 108 deposits, `[live] ensemble` 4 against 16 on the log's
+/// first 1 200 rows, 80.0 and 202.1 MB peak resident): 5.08 MB a copy, 2.85 MB of it the cells
+/// at [`VOXEL_BYTES`] as the estimate counts them, the rest 220 B a deposit (docs/PERFORMANCE.md
+/// "`follow`'s memory").
+pub const RUN_DEPOSIT_BYTES: f64 = 220.0;
+
 /// What each measured reading a replay holds costs besides the model, bytes: the reading, its
 /// prediction and comparison, and its rows in the recording (rerun's and the MCAP's). Measured
 /// as (peak RSS − the model's estimate) over the readings: 0.85 kB on the GAMMA wall's replay
