@@ -631,14 +631,9 @@ mod tests {
         .unwrap()
     }
 
-    /// What the dwell search's shortcut (`Twin::through_layer_quenched`, `follow`'s advice)
-    /// stands on: a track laid on the part brought to ambient reads a lower preheat and a
-    /// shorter melt pool, member by member, than laid after no dwell, half a minute's or an
-    /// hour's.
-    #[test]
-    fn a_track_laid_on_the_quenched_part_is_the_coolest_any_dwell_leaves() {
-        let r = wall();
-        let prior = Uncertain {
+    /// The prior the tests' twins hold: the efficiency 0.8 ± 0.1 in [0.3, 0.95].
+    fn efficiency_prior() -> Uncertain {
+        Uncertain {
             parameter: Parameter::Efficiency,
             range: Range {
                 low: 0.3,
@@ -646,7 +641,17 @@ mod tests {
             },
             mean: 0.8,
             sd: 0.1,
-        };
+        }
+    }
+
+    /// What the dwell search's shortcut (`Twin::through_layer_quenched`, `follow`'s advice)
+    /// stands on: a track laid on the part brought to ambient reads a lower preheat and a
+    /// shorter melt pool, member by member, than laid after no dwell, half a minute's or an
+    /// hour's.
+    #[test]
+    fn a_track_laid_on_the_quenched_part_is_the_coolest_any_dwell_leaves() {
+        let r = wall();
+        let prior = efficiency_prior();
         let settings = Settings {
             ensemble: 4,
             ..Settings::default()
@@ -707,15 +712,7 @@ mod tests {
             horizons_s: vec![5.0],
             ..Settings::default()
         };
-        let prior = Uncertain {
-            parameter: Parameter::Efficiency,
-            range: Range {
-                low: 0.3,
-                high: 0.95,
-            },
-            mean: 0.8,
-            sd: 0.1,
-        };
+        let prior = efficiency_prior();
         let twin = || Twin::new(&r, settings.clone(), vec![prior]).unwrap();
         let rows: Vec<(f64, Vec<Option<f64>>)> = (1..=60)
             .map(|k| {
@@ -767,16 +764,7 @@ mod tests {
             horizons_s: vec![10.0],
             ..Settings::default()
         };
-        let range = Range {
-            low: 0.3,
-            high: 0.95,
-        };
-        let prior = Uncertain {
-            parameter: Parameter::Efficiency,
-            range,
-            mean: 0.8,
-            sd: 0.1,
-        };
+        let prior = efficiency_prior();
         let twin = Twin::new(&r, settings, vec![prior]).unwrap();
         let mut f = Follower::new(twin, &r.deps, 2);
         let end = deps.last().unwrap().time + 20.0;
