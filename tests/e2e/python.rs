@@ -22,7 +22,8 @@ fn bounded(seconds: u32, program: &Path) -> Command {
 /// `ring`'s build script reads those names through `rerun-if-env-changed`: seen with this
 /// crate's values there, they made `ring` and the 20 crates above it (rustls, tonic, rerun's)
 /// stale, built again for some 250 s of the test's time (and once more by the workspace's
-/// next build outside the test). Variables that configure cargo itself (CARGO_HOME, CARGO_NET_*, …) are kept.
+/// next build outside the test). Variables that configure cargo itself (CARGO_HOME,
+/// CARGO_NET_*, …) are kept.
 fn without_this_crates_cargo_vars(c: &mut Command) -> &mut Command {
     for (name, _) in std::env::vars_os() {
         let Some(name) = name.to_str() else { continue };

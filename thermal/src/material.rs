@@ -217,7 +217,7 @@ impl Material {
     /// h(T); above the tables' top it runs on at their last c_p, the inverse of
     /// [`Material::temperature`] there. Clamped there, it gave a node above 4 000 K no heat
     /// capacity: the thin wall's implicit step then took it for its neighbours' temperature, its
-    /// heat never left, and it read 3 700–4 100 °C for the rest of the run (docs/PHYSICS.md
+    /// heat never left, and it read 3 740–4 140 °C for the rest of the run (docs/PHYSICS.md
     /// "Above the tables' top").
     pub fn enthalpy(&self, t: f64) -> f64 {
         let last = self.h.len() - 1;

@@ -13,7 +13,7 @@
 
 use crate::pipeline::params::{ThermalModel, ThermalSettings};
 use thermal::run::{Cells, RunResult};
-use thermal::schedule::{Deposit, arc_lengths, bead_volume};
+use thermal::schedule::{Deposit, arc_lengths, bead_volume, segment_start};
 
 /// One of the warnings below, as a command shows it (`line`) and as the outputs name it
 /// (`kind`: thermal.json's and replay.json's `warnings`, a study's summary.csv).
@@ -89,12 +89,7 @@ impl Floating {
 /// within 26° of the axis) grows its metal from the plate and is left out, as are drops.
 pub fn floating(deps: &[Deposit]) -> Option<Floating> {
     let climbs = |i: usize| {
-        let d = &deps[i];
-        let from = match (d.start, i.checked_sub(1)) {
-            (Some(s), _) => s,
-            (None, Some(j)) => deps[j].position,
-            (None, None) => return false,
-        };
+        let (d, from) = (&deps[i], segment_start(deps, i));
         let seg: [f64; 3] = std::array::from_fn(|k| d.position[k] - from[k]);
         let len = seg.iter().map(|x| x * x).sum::<f64>().sqrt();
         let along: f64 = (0..3).map(|k| seg[k] * d.axis[k]).sum();
