@@ -146,12 +146,13 @@ fn scores(v: &serde_json::Value, horizon: &str) -> serde_json::Value {
 /// `follow` runs, the event series the program, an interpass limit of 150 °C. The twin's
 /// 60 s forecasts at most half the open loop's error, the band holding 70–99 % of the
 /// readings, forecasts made from the readings up to their moment and no later, and alarms at
-/// the layers the forecast puts over the limit. Forecasts every 60 s of build rather than the
+/// the layers the forecast puts over the limit. Forecasts every 120 s of build rather than the
 /// default 30 s: the forecasts are most of the twin's work (each runs the 16 members and the
-/// open loop ahead), and at 30 s this test alone took 319 s and 571 s of CPU on a 2-core CI
-/// machine, at 60 s 193 s and 333 s (`waamtwin follow` of the whole file, 2026-11-30), with
-/// every score on the same side of its bound (docs/PERFORMANCE.md "CI's time on a slower
-/// machine").
+/// open loop 300 s ahead), and at 30 s this test alone took 319 s and 571 s of CPU on a 2-core
+/// CI machine, at 60 s 193 s and 333 s, and, the model cheaper since, at 60 s 168 s and 285 s,
+/// at 120 s 108 s and 176 s (`waamtwin follow` of the whole file, 2026-11-30), with every score
+/// on the same side of its bound (docs/PERFORMANCE.md "CI's time on a slower machine", "CI's
+/// time, the twin's forecasts and a notebook's dome").
 #[test]
 #[cfg_attr(
     not(validation_data),
@@ -165,7 +166,7 @@ fn ornl_pad_followed_live_at_twenty_times_its_pace() {
     scenario_with(
         &root().join("scenarios/ornl_srp_pad.toml"),
         &probes,
-        "interpass_max_c = 150.0\nforecast_every_s = 60.0",
+        "interpass_max_c = 150.0\nforecast_every_s = 120.0",
         &scenario,
     );
     let lines: Vec<String> = std::fs::read_to_string(&log)
@@ -223,9 +224,9 @@ fn ornl_pad_followed_live_at_twenty_times_its_pace() {
         assert!((carried - reading).abs() < 0.01, "{f:?} against {reading}");
         checked += 1;
     }
-    // A forecast every 60 s of the 3 694 s build and at each layer's end, each at three
-    // horizons: 174 of this probe.
-    assert!(checked > 150, "{checked} forecasts of tc3");
+    // A forecast every 120 s of the 3 694 s build and at each layer's end, each at three
+    // horizons: 96 of this probe.
+    assert!(checked > 80, "{checked} forecasts of tc3");
     let (header, alarms) = crate::read_csv(&out.join("alarms.csv"));
     let limit = header.iter().position(|h| h == "limit_c").unwrap();
     assert!(alarms.iter().all(|a| a[limit] == "150.00"), "{alarms:?}");

@@ -1,9 +1,12 @@
-//! G-code as a machine runs it: linear moves (G0, G1) in absolute coordinates (G90), feed F,
-//! dwells (G4 P in ms or S in s), and the codes that strike and stop the arc, named by the
-//! scenario (welding cells differ: ORNL's Wolf dialect uses M101 and M103). Comments (`;` and
-//! parentheses) are dropped; words may run together (`M5T2D1F0`); a line that is not G-code
-//! (Wolf's `BEGINNING LAYER`) is skipped; any other code is ignored. Time is distance over feed,
-//! or over `travel_mm_s` with the arc off where the controller moves faster than programmed.
+//! G-code as a machine runs it: moves (G0, G1) and arcs in the XY plane (G2, G3, by centre
+//! or radius, cut into chords within `ARC_SAGITTA_MM`), modal motion, absolute or relative
+//! coordinates (G90, G91) in mm or inches (G21, G20), feed F, dwells (G4 P in ms or S in s),
+//! and the codes that strike and stop the arc, named by the scenario (welding cells differ:
+//! ORNL's Wolf dialect uses M101 and M103). Comments (`;` and parentheses) are dropped; words
+//! may run together (`M5T2D1F0`); a line that is not G-code (Wolf's `BEGINNING LAYER`) is
+//! skipped; codes that would put the path after them in another frame (G10, G28, G30, G53,
+//! G92) are refused; any other code is ignored. Time is distance over feed, or over
+//! `travel_mm_s` with the arc off where the controller moves faster than programmed.
 
 use super::at_line;
 use super::toolpath::Waypoint;
@@ -55,133 +58,426 @@ fn words(line: &str) -> Vec<(char, &str)> {
     out
 }
 
+/// The most waypoints a program may make (about 0.6 GB of them): an arc's chords are the only
+/// waypoints a line makes more than one of, up to `ARC_CHORDS_PER_TURN` a turn, so a short file
+/// of arcs could otherwise claim far more memory than it holds.
+pub const MOST_WAYPOINTS: usize = 10_000_000;
+
+/// How far an arc's chord may stray from the arc (its sagitta), mm: a hundredth of a
+/// millimetre, a fraction of a bead's width and of any controller's own tolerance.
+const ARC_SAGITTA_MM: f64 = 0.01;
+
+/// The most chords a whole turn of an arc is cut into (one a degree): on arcs of more than
+/// about 0.66 m radius they stray more than `ARC_SAGITTA_MM` (0.15 mm at 5 m).
+const ARC_CHORDS_PER_TURN: f64 = 360.0;
+
+/// How far an arc's end may lie off the circle its start and centre make, mm, or this share
+/// of its radius where that is more (LinuxCNC's check is of the same kind).
+const ARC_END_MM: f64 = 0.05;
+const ARC_END_SHARE: f64 = 1e-3;
+
+/// The modal state a program runs under: what a line with coordinates and no motion code
+/// does, and how its numbers are read.
+struct Modal {
+    motion: Option<Motion>,
+    /// G91: coordinates are moves from the current point.
+    relative: bool,
+    /// G90.1: an arc's I and J are the centre itself, not its offset from the start.
+    absolute_centre: bool,
+    /// mm per unit of the program: 1 (G21) or 25.4 (G20).
+    unit_mm: f64,
+    /// G17, the XY plane; arcs in G18 and G19 are refused.
+    xy_plane: bool,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Motion {
+    Rapid,
+    Linear,
+    /// G2 (clockwise seen from +Z) or G3.
+    Arc {
+        clockwise: bool,
+    },
+}
+
+/// One line's words, and where it is for messages.
+struct Line<'a> {
+    words: Vec<(char, &'a str)>,
+    file: &'a str,
+    n: usize,
+}
+
+impl Line<'_> {
+    fn fail(&self, what: impl std::fmt::Display) -> Error {
+        at_line(self.file, self.n, what)
+    }
+
+    /// The text of the first word of this letter.
+    fn word(&self, letter: char) -> Option<&str> {
+        self.words
+            .iter()
+            .find(|(l, _)| *l == letter)
+            .map(|(_, v)| *v)
+    }
+
+    fn number(&self, letter: char, v: &str) -> Result<f64> {
+        match v.parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            _ => Err(self.fail(format!(
+                "{letter}{v}; expected a finite number after {letter}"
+            ))),
+        }
+    }
+
+    /// The number of the first word of this letter, where there is one.
+    fn value(&self, letter: char) -> Result<Option<f64>> {
+        self.word(letter)
+            .map(|v| self.number(letter, v))
+            .transpose()
+    }
+
+    /// Whether the line holds this code (e.g. "M101": the letter and its number's value).
+    fn holds(&self, code: &str) -> bool {
+        self.words
+            .iter()
+            .any(|(l, v)| code.starts_with(*l) && v.parse::<f64>().ok() == code[1..].parse().ok())
+    }
+}
+
+/// What the line's G codes ask for this line alone.
+struct Codes {
+    dwell: bool,
+    /// The line names G0-G3.
+    motion: bool,
+}
+
+/// Apply the line's G codes to the modal state.
+fn apply_codes(line: &Line, modal: &mut Modal) -> Result<Codes> {
+    let mut codes = Codes {
+        dwell: false,
+        motion: false,
+    };
+    for (_, v) in line.words.iter().filter(|(l, _)| *l == 'G') {
+        // Tenths: G90.1 and G91.1 are codes of their own.
+        let g = (line.number('G', v)? * 10.0).round() as i64;
+        codes.motion |= matches!(g, 0 | 10 | 20 | 30);
+        match g {
+            0 => modal.motion = Some(Motion::Rapid),
+            10 => modal.motion = Some(Motion::Linear),
+            20 => modal.motion = Some(Motion::Arc { clockwise: true }),
+            30 => modal.motion = Some(Motion::Arc { clockwise: false }),
+            40 => codes.dwell = true,
+            170 => modal.xy_plane = true,
+            180 | 190 => modal.xy_plane = false,
+            200 => modal.unit_mm = 25.4,
+            210 => modal.unit_mm = 1.0,
+            900 => modal.relative = false,
+            910 => modal.relative = true,
+            901 => modal.absolute_centre = true,
+            911 => modal.absolute_centre = false,
+            // Codes that move to, or redefine, a frame this reader does not know: the path
+            // after them would be laid somewhere else.
+            100 | 280 | 300 | 530 | 920 => {
+                let what = match g {
+                    100 => "a frame's offsets set",
+                    280 | 300 => "a return to a home position",
+                    530 => "a move in the machine's frame",
+                    _ => "the current point redefined",
+                };
+                return Err(line.fail(format!(
+                    "G{v} ({what}); expected moves in the program's own frame (G0-G3, G90/G91)"
+                )));
+            }
+            _ => {}
+        }
+    }
+    Ok(codes)
+}
+
+/// A G4 line's pause, s: P in ms or S in s.
+fn pause_s(line: &Line) -> Result<f64> {
+    let pause = line.words.iter().find_map(|(l, v)| match l {
+        'P' => Some(line.number('P', v).map(|ms| ms / 1e3)),
+        'S' => Some(line.number('S', v)),
+        _ => None,
+    });
+    let pause = pause.transpose()?.unwrap_or(0.0);
+    if pause < 0.0 {
+        return Err(line.fail(format!("G4 of {pause} s; expected a pause ≥ 0")));
+    }
+    Ok(pause)
+}
+
+/// Where a line's coordinates take the torch from `at`.
+fn target(line: &Line, modal: &Modal, at: [f64; 3]) -> Result<[f64; 3]> {
+    let mut to = at;
+    for (i, l) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        if let Some(x) = line.value(l)? {
+            let x = x * modal.unit_mm;
+            to[i] = if modal.relative { at[i] + x } else { x };
+        }
+    }
+    if !to.iter().all(|x| x.is_finite()) {
+        return Err(line.fail(format!("a move to {to:?} mm; expected finite coordinates")));
+    }
+    Ok(to)
+}
+
+/// The centre of a G2/G3 line's arc from `at` to `to`: by I and J, or by R.
+fn arc_centre(
+    line: &Line,
+    modal: &Modal,
+    (at, to): ([f64; 3], [f64; 3]),
+    clockwise: bool,
+) -> Result<[f64; 2]> {
+    if !modal.xy_plane {
+        return Err(line
+            .fail("an arc in the XZ or YZ plane (G18, G19); expected arcs in the XY plane (G17)"));
+    }
+    if let Some(turns) = line.value('P')?
+        && turns != 1.0
+    {
+        return Err(line.fail(format!(
+            "P{turns} turns of an arc; expected one turn at most (no P)"
+        )));
+    }
+    let centre = |l: char, i: usize| -> Result<Option<f64>> {
+        Ok(line.value(l)?.map(|x| {
+            let x = x * modal.unit_mm;
+            if modal.absolute_centre { x } else { at[i] + x }
+        }))
+    };
+    let c = match (centre('I', 0)?, centre('J', 1)?, line.value('R')?) {
+        (None, None, Some(r)) => {
+            centre_of_radius(at, to, r * modal.unit_mm, clockwise).map_err(|why| line.fail(why))
+        }
+        (None, None, None) => {
+            Err(line.fail("an arc with neither its centre (I, J) nor its radius (R)"))
+        }
+        (i, j, None) => Ok([i.unwrap_or(at[0]), j.unwrap_or(at[1])]),
+        (_, _, Some(_)) => {
+            Err(line.fail("an arc with both its centre (I, J) and its radius (R); expected one"))
+        }
+    }?;
+    if !c.iter().all(|x| x.is_finite()) {
+        return Err(line.fail(format!(
+            "an arc centred at {c:?} mm; expected a finite centre"
+        )));
+    }
+    Ok(c)
+}
+
 /// Read G-code; `file` names it in messages.
 pub fn waypoints(text: &str, file: &str, d: &Dialect) -> Result<Vec<Waypoint>> {
     let (mut t, mut at, mut feed, mut arc) = (0.0f64, [0.0f64; 3], None::<f64>, false);
+    let mut modal = Modal {
+        motion: None,
+        relative: false,
+        absolute_centre: false,
+        unit_mm: 1.0,
+        xy_plane: true,
+    };
     let mut out = vec![Waypoint {
         t_s: 0.0,
         position_mm: at,
         on: false,
         power_w: None,
     }];
-    for (k, line) in text.lines().enumerate() {
-        let n = k + 1;
-        let w = words(line);
+    for (k, text) in text.lines().enumerate() {
+        let line = Line {
+            words: words(text),
+            file,
+            n: k + 1,
+        };
         // Not G-code (a label the slicer writes): every word's number is empty.
-        if w.is_empty() || w.iter().all(|(_, v)| v.is_empty()) {
+        if line.words.iter().all(|(_, v)| v.is_empty()) {
             continue;
         }
-        let number = |letter: char, v: &str| -> Result<f64> {
-            match v.parse::<f64>() {
-                Ok(x) if x.is_finite() => Ok(x),
-                _ => Err(at_line(
-                    file,
-                    n,
-                    format!("{letter}{v}; expected a finite number after {letter}"),
-                )),
-            }
-        };
-        let code = |c: &str| {
-            w.iter()
-                .any(|(l, v)| c.starts_with(*l) && v.parse::<f64>().ok() == c[1..].parse().ok())
-        };
-        if code(&d.arc_on) {
+        if line.holds(&d.arc_on) {
             arc = true;
         }
-        if code(&d.arc_off) {
+        if line.holds(&d.arc_off) {
             arc = false;
         }
-        let g = w.iter().find(|(l, _)| *l == 'G').map(|(_, v)| *v);
-        match g {
-            Some("0" | "00" | "1" | "01") => {
-                let mut to = at;
-                for (l, v) in &w {
-                    match l {
-                        'X' => to[0] = number(*l, v)?,
-                        'Y' => to[1] = number(*l, v)?,
-                        'Z' => to[2] = number(*l, v)?,
-                        'F' => {
-                            let f = number(*l, v)?;
-                            if f <= 0.0 {
-                                return Err(at_line(
-                                    file,
-                                    n,
-                                    format!("F{v}; expected a positive feed"),
-                                ));
-                            }
-                            feed = Some(f * d.feed_scale);
-                        }
-                        _ => {}
-                    }
-                }
-                let length = (0..3).map(|i| (to[i] - at[i]).powi(2)).sum::<f64>().sqrt();
-                if length == 0.0 {
-                    continue;
-                }
-                let speed = match (arc, d.travel_mm_s) {
-                    (false, Some(v)) => v,
-                    _ => feed.ok_or_else(|| {
-                        at_line(
-                            file,
-                            n,
-                            "a move before any feed F; expected F on or before it",
-                        )
-                    })?,
-                };
-                t += length / speed;
-                at = to;
+        let codes = apply_codes(&line, &mut modal)?;
+        if codes.dwell {
+            let pause = pause_s(&line)?;
+            if pause > 0.0 {
+                t += pause;
                 out.push(Waypoint {
                     t_s: t,
                     position_mm: at,
-                    on: arc,
+                    on: false,
                     power_w: None,
                 });
             }
-            Some("4" | "04") => {
-                let pause = w.iter().find_map(|(l, v)| match l {
-                    'P' => Some(number('P', v).map(|ms| ms / 1e3)),
-                    'S' => Some(number('S', v)),
-                    _ => None,
-                });
-                let pause = pause.transpose()?.unwrap_or(0.0);
-                if pause < 0.0 {
-                    return Err(at_line(
-                        file,
-                        n,
-                        format!("G4 of {pause} s; expected a pause ≥ 0"),
-                    ));
-                }
-                if pause > 0.0 {
-                    t += pause;
-                    out.push(Waypoint {
-                        t_s: t,
-                        position_mm: at,
-                        on: false,
-                        power_w: None,
-                    });
-                }
+            continue;
+        }
+        let moves = ['X', 'Y', 'Z'].iter().any(|&l| line.word(l).is_some());
+        // F is read where the line moves, names a motion or stands alone (with a line number
+        // at most): a dialect's F on a line of other codes (Wolf's `M5T2D1F0`) is not the feed.
+        let feed_alone = line.words.iter().all(|(l, _)| matches!(l, 'F' | 'N'));
+        if (moves || codes.motion || feed_alone)
+            && let Some(f) = line.value('F')?
+        {
+            if f <= 0.0 {
+                return Err(line.fail(format!("F{f}; expected a positive feed")));
             }
-            Some("91") => {
-                return Err(at_line(
-                    file,
-                    n,
-                    "G91 (relative moves); expected absolute coordinates (G90)",
-                ));
+            feed = Some(f * modal.unit_mm * d.feed_scale);
+        }
+        if !moves {
+            continue;
+        }
+        let Some(motion) = modal.motion else {
+            return Err(line.fail(
+                "coordinates with no motion mode before them; expected G0, G1, G2 or G3 on or \
+                 before this line",
+            ));
+        };
+        let to = target(&line, &modal, at)?;
+        // The points the move passes, and the path's length to each from the one before.
+        let (points, step_mm) = match motion {
+            Motion::Rapid | Motion::Linear => (vec![to], distance(at, to)),
+            Motion::Arc { clockwise } => {
+                let centre = arc_centre(&line, &modal, (at, to), clockwise)?;
+                arc_chords(at, to, centre, clockwise).map_err(|why| line.fail(why))?
             }
-            _ => {}
+        };
+        if step_mm == 0.0 {
+            continue;
+        }
+        let speed = match (arc, d.travel_mm_s) {
+            (false, Some(v)) => v,
+            _ => feed
+                .ok_or_else(|| line.fail("a move before any feed F; expected F on or before it"))?,
+        };
+        if out.len() + points.len() > MOST_WAYPOINTS {
+            return Err(line.fail(format!(
+                "the program's moves and arcs' chords come to more than {MOST_WAYPOINTS} \
+                 waypoints; expected fewer"
+            )));
+        }
+        // An arc's time is its own length over the speed, shared evenly by its chords (each
+        // spans the same angle), not the chords' length: that is short of the arc's by up to
+        // θ²/24, 1.7e-4 of it for chords 0.01 mm off an arc of 20 mm radius.
+        if !(t + points.len() as f64 * step_mm / speed).is_finite() {
+            return Err(line.fail(format!(
+                "{step_mm} mm at {speed} mm/s; expected a move the program's clock can time"
+            )));
+        }
+        for p in points {
+            t += step_mm / speed;
+            at = p;
+            out.push(Waypoint {
+                t_s: t,
+                position_mm: at,
+                on: arc,
+                power_w: None,
+            });
         }
     }
     if out.len() < 2 {
         return Err(Error::input(format!(
-            "{file}: no moves; expected G0 or G1 lines"
+            "{file}: no moves; expected G0, G1, G2 or G3 lines"
         )));
     }
     Ok(out)
 }
 
+/// By hypot: a distance a finite program makes stays finite (squares of 1e200 mm would not).
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1]).hypot(a[2] - b[2])
+}
+
+/// The centre of the arc of radius `r` from `from` to `to` in the XY plane: the arc of at most
+/// half a turn for r > 0, of more for r < 0 (the standard's R form).
+fn centre_of_radius(
+    from: [f64; 3],
+    to: [f64; 3],
+    r: f64,
+    clockwise: bool,
+) -> std::result::Result<[f64; 2], String> {
+    let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+    let chord = dx.hypot(dy);
+    if chord == 0.0 || r == 0.0 {
+        return Err(format!(
+            "an arc of radius R{r} over a chord of {chord} mm; expected a chord and a radius \
+             (a whole turn needs its centre, I and J)"
+        ));
+    }
+    let half = chord / 2.0;
+    let reach = r.abs();
+    // A radius a hair short of half the chord is the controller's rounding: a half turn.
+    if reach < half * (1.0 - 1e-6) - 1e-6 {
+        return Err(format!(
+            "an arc of radius {reach:.4} mm over a chord of {chord:.4} mm; expected a radius of \
+             at least half the chord"
+        ));
+    }
+    let h = (reach * reach - half * half).max(0.0).sqrt();
+    // Left of the chord for a counter-clockwise arc of at most half a turn.
+    let left = [-dy / chord, dx / chord];
+    let side = if clockwise { -1.0 } else { 1.0 } * r.signum();
+    let mid = [from[0] + dx / 2.0, from[1] + dy / 2.0];
+    Ok([mid[0] + side * h * left[0], mid[1] + side * h * left[1]])
+}
+
+/// The chords of the arc (a helix where z changes) from `from` to `to` about `centre` in the
+/// XY plane, each point after `from`, the last `to` itself: a whole turn where they coincide;
+/// and the arc's length a chord, each spanning the same angle. The radius runs from the
+/// start's to the end's (they may differ by `ARC_END_MM`).
+fn arc_chords(
+    from: [f64; 3],
+    to: [f64; 3],
+    centre: [f64; 2],
+    clockwise: bool,
+) -> std::result::Result<(Vec<[f64; 3]>, f64), String> {
+    let r0 = (from[0] - centre[0]).hypot(from[1] - centre[1]);
+    let r1 = (to[0] - centre[0]).hypot(to[1] - centre[1]);
+    if r0 == 0.0 || (r0 - r1).abs() > ARC_END_MM.max(ARC_END_SHARE * r0) {
+        return Err(format!(
+            "an arc whose end lies {r1:.4} mm from its centre and its start {r0:.4} mm; expected \
+             both on one circle (within {ARC_END_MM} mm or {ARC_END_SHARE} of the radius)"
+        ));
+    }
+    let a0 = (from[1] - centre[1]).atan2(from[0] - centre[0]);
+    let a1 = (to[1] - centre[1]).atan2(to[0] - centre[0]);
+    let tau = std::f64::consts::TAU;
+    let mut sweep = a1 - a0;
+    if clockwise {
+        while sweep >= 0.0 {
+            sweep -= tau;
+        }
+    } else {
+        while sweep <= 0.0 {
+            sweep += tau;
+        }
+    }
+    let r = r0.max(r1);
+    let by_sagitta = 2.0 * (1.0 - (ARC_SAGITTA_MM / r).min(1.0)).acos();
+    let step = by_sagitta.max(tau / ARC_CHORDS_PER_TURN);
+    let chords = (sweep.abs() / step).ceil().max(1.0) as usize;
+    let length = ((r0 + r1) / 2.0 * sweep).hypot(to[2] - from[2]);
+    let points = (1..=chords)
+        .map(|k| {
+            if k == chords {
+                return to;
+            }
+            let f = k as f64 / chords as f64;
+            let (a, radius) = (a0 + f * sweep, r0 + f * (r1 - r0));
+            [
+                centre[0] + radius * a.cos(),
+                centre[1] + radius * a.sin(),
+                from[2] + f * (to[2] - from[2]),
+            ]
+        })
+        .collect();
+    Ok((points, length / chords as f64))
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{Dialect, waypoints};
+    use super::{Dialect, distance, waypoints};
 
     fn wolf() -> Dialect {
         Dialect {
@@ -222,7 +518,148 @@ mod tests {
         assert!(e.message.contains("p.nc line 1: X1.0.0"), "{}", e.message);
         let e = waypoints("G1 X10\n", "p.nc", &d).unwrap_err();
         assert!(e.message.contains("before any feed"), "{}", e.message);
-        let e = waypoints("G91\nG1 X1 F1\n", "p.nc", &d).unwrap_err();
-        assert!(e.message.contains("G91"), "{}", e.message);
+    }
+
+    fn standard() -> Dialect {
+        Dialect {
+            arc_on: "M3".into(),
+            arc_off: "M5".into(),
+            feed_scale: 1.0 / 60.0,
+            travel_mm_s: None,
+        }
+    }
+
+    /// A whole turn (G2 back to its start, the centre by I and J): every waypoint on the
+    /// circle, every chord within the sagitta of it, clockwise seen from +Z, and the turn taking
+    /// its length over the feed.
+    #[test]
+    fn an_arc_is_laid_along_its_circle_in_its_time() {
+        let w = waypoints("G1 F600\nM3\nG2 X0 Y0 I20 J0\n", "p.nc", &standard()).unwrap();
+        let centre = [20.0, 0.0, 0.0];
+        for p in &w {
+            assert!(
+                (distance(p.position_mm, centre) - 20.0).abs() < 1e-9,
+                "{p:?}"
+            );
+        }
+        for c in w.windows(2) {
+            let mid = [0, 1, 2].map(|i| (c[0].position_mm[i] + c[1].position_mm[i]) / 2.0);
+            assert!(20.0 - distance(mid, centre) <= 0.01 + 1e-12, "{c:?}");
+        }
+        assert!(
+            w[1].position_mm[1] > 0.0,
+            "clockwise from (0, 0) about (20, 0): up first"
+        );
+        assert!(w[1..].iter().all(|p| p.on));
+        let last = w.last().unwrap();
+        assert!(distance(last.position_mm, [0.0; 3]) < 1e-12);
+        let turn = std::f64::consts::TAU * 20.0 / 10.0;
+        assert!(
+            (last.t_s / turn - 1.0).abs() < 1e-12,
+            "{} s for {turn} s",
+            last.t_s
+        );
+    }
+
+    /// From (10, 0) to (0, 10): R 10 is the quarter turn, R −10 the three quarters, either way
+    /// round; and R's arc is the one its centre names.
+    #[test]
+    fn the_radius_form_takes_the_short_arc_and_a_negative_radius_the_long_one() {
+        let length = |g: &str| {
+            let text = format!("G1 X10 F600\n{g} X0 Y10\n");
+            let w = waypoints(&text, "p.nc", &standard()).unwrap();
+            (w.last().unwrap().t_s - w[1].t_s) * 10.0
+        };
+        let quarter = std::f64::consts::FRAC_PI_2 * 10.0;
+        for (g, turns) in [
+            ("G3 R10", 1.0),
+            ("G3 R-10", 3.0),
+            ("G2 R10", 1.0),
+            ("G2 R-10", 3.0),
+        ] {
+            let l = length(g);
+            assert!((l / (turns * quarter) - 1.0).abs() < 1e-12, "{g}: {l} mm");
+        }
+        let by = |g: &str| {
+            waypoints(&format!("G1 X10 F600\n{g}\n"), "p.nc", &standard())
+                .unwrap()
+                .iter()
+                .map(|w| w.position_mm)
+                .collect::<Vec<_>>()
+        };
+        let (r, ij) = (by("G3 X0 Y10 R10"), by("G3 X0 Y10 I-10 J0"));
+        assert_eq!(r.len(), ij.len());
+        assert!(r.iter().zip(&ij).all(|(a, b)| distance(*a, *b) < 1e-9));
+        // The centre itself (G90.1), and a helix: z runs with the angle.
+        let abs = by("G90.1 G3 X0 Y10 Z5 I0 J0");
+        assert!(distance(abs[abs.len() / 2 + 1], [0.0; 3]) > 9.99);
+        assert_eq!(*abs.last().unwrap(), [0.0, 10.0, 5.0]);
+    }
+
+    /// Coordinates alone go on with the last motion; several G codes share a line; G20 is
+    /// inches, feed included; G91 moves from the current point; F stands alone.
+    #[test]
+    fn modal_moves_inches_and_relative_coordinates() {
+        let g = "G21 G90 G1 X10 F600\nX20\nY5\nG20 G91\nG1 X1 F60\nG90 G21\nF1200\nG0 X0 Y0\n";
+        let w = waypoints(g, "p.nc", &standard()).unwrap();
+        let at: Vec<[f64; 3]> = w.iter().map(|w| w.position_mm).collect();
+        let want = [
+            [0.0, 0.0, 0.0],
+            [10.0, 0.0, 0.0],
+            [20.0, 0.0, 0.0],
+            [20.0, 5.0, 0.0],
+        ];
+        assert_eq!(at[..4], want);
+        assert!(distance(at[4], [45.4, 5.0, 0.0]) < 1e-12, "{:?}", at[4]);
+        assert_eq!(at[5], [0.0; 3]);
+        // An inch at 60 in/min: 1 s; then 45.7 mm at 1 200 mm/min.
+        assert!((w[4].t_s - w[3].t_s - 1.0).abs() < 1e-9);
+        let back = 45.4f64.hypot(5.0) / 20.0;
+        assert!((w[5].t_s - w[4].t_s - back).abs() < 1e-9);
+    }
+
+    #[test]
+    fn what_it_cannot_lay_is_refused_naming_the_line() {
+        for (g, says) in [
+            (
+                "G1 X1 F1\nG92 X0\n",
+                "p.nc line 2: G92 (the current point redefined)",
+            ),
+            (
+                "G1 X1 F1\nG28 X0\n",
+                "line 2: G28 (a return to a home position)",
+            ),
+            ("G53 G0 X0\n", "line 1: G53"),
+            ("X1\n", "line 1: coordinates with no motion mode"),
+            (
+                "G1 F600\nG2 X10 Y0 I3 J0\n",
+                "line 2: an arc whose end lies 7.0000 mm",
+            ),
+            (
+                "G18\nG2 X10 Z0 I5 F600\n",
+                "line 2: an arc in the XZ or YZ plane",
+            ),
+            (
+                "G1 F600\nG2 X10 Y0 R2\n",
+                "expected a radius of at least half the chord",
+            ),
+            ("G1 F600\nG2 X0 Y0 R2\n", "a whole turn needs its centre"),
+            ("G1 F600\nG2 X10 Y0\n", "neither its centre"),
+            ("G1 F600\nG2 X10 Y0 I5 R5\n", "both its centre"),
+            ("G1 F600\nG2 X0 Y0 I5 P3\n", "P3 turns"),
+            ("G1e X1 F1\n", "line 1: G1e; expected a finite number"),
+            ("G91 G1 X1e308 F1e9\nX1e308\n", "line 2: a move to [inf"),
+            (
+                "G1 X1e308 F1e300\nG2 X1e308 Y0 I1e308\n",
+                "line 2: an arc centred at [inf",
+            ),
+            (
+                "G1 X1e300 F1e-300\n",
+                "expected a move the program's clock can time",
+            ),
+        ] {
+            let e = waypoints(g, "p.nc", &standard()).unwrap_err();
+            assert!(e.message.contains(says), "{g:?}: {}", e.message);
+        }
     }
 }
