@@ -7,7 +7,7 @@
 //! (time, power and position all 0) is skipped.
 
 use super::toolpath::Waypoint;
-use super::{at_line, fields};
+use super::{at_line, cells};
 use crate::error::{Error, Result};
 
 /// Which columns hold what, by header name.
@@ -35,10 +35,7 @@ impl Default for Columns {
 /// The log as waypoints; `file` names it in messages.
 pub fn waypoints(text: &str, file: &str, c: &Columns) -> Result<Vec<Waypoint>> {
     let mut lines = text.lines().enumerate();
-    let header: Vec<&str> = lines
-        .next()
-        .map(|(_, l)| l.split(',').map(str::trim).collect())
-        .unwrap_or_default();
+    let header: Vec<&str> = lines.next().map(|(_, l)| cells(l)).unwrap_or_default();
     let find = |name: &str| {
         header.iter().position(|h| *h == name).ok_or_else(|| {
             Error::input(format!(
@@ -69,8 +66,10 @@ pub fn waypoints(text: &str, file: &str, c: &Columns) -> Result<Vec<Waypoint>> {
     let mut out: Vec<Waypoint> = Vec::new();
     for (k, line) in lines {
         let n = k + 1;
-        let f = fields(line);
-        if f.is_empty() {
+        // A sensor's empty cell keeps its place: the columns after it are read where the
+        // header has them (runs of commas merged would read the current from the next column).
+        let f = cells(line);
+        if f.iter().all(|c| c.is_empty()) {
             continue;
         }
         if f.len() <= widest {
@@ -144,6 +143,40 @@ mod tests {
         assert!(w[1].on);
         assert!((w[1].power_w.unwrap() - 16.4 * 158.0).abs() < 1e-9);
         assert_eq!(w[1].position_mm, [-20.25, -243.2, 0.0]);
+    }
+
+    /// A sensor's empty cell (a reading missing, as the probe files have them) keeps its
+    /// column's place: the power and the position after it are read from their own columns.
+    #[test]
+    fn an_empty_cell_keeps_its_columns_place() {
+        let gap = LOG.replace("26.4,16.4,158", ",16.4,158");
+        let w = waypoints(&gap, "log.csv", &Columns::default()).unwrap();
+        assert!((w[1].power_w.unwrap() - 16.4 * 158.0).abs() < 1e-9);
+        assert_eq!(w[1].position_mm, [-20.25, -243.2, 0.0]);
+        // With a column after z (the wire feed), runs of commas merged read every column from
+        // the next one along, silently: the voltage from the current, the flag from x.
+        let fed = LOG
+            .replace("z_mm\n", "z_mm,wire_m_min\n")
+            .replace(",0\n", ",0,6.5\n");
+        let w = waypoints(
+            &fed.replace("26.4,16.4,158", ",16.4,158"),
+            "log.csv",
+            &Columns::default(),
+        )
+        .unwrap();
+        assert!((w[1].power_w.unwrap() - 16.4 * 158.0).abs() < 1e-9);
+        assert_eq!(w[1].position_mm, [-20.25, -243.2, 0.0]);
+        let e = waypoints(
+            &LOG.replace("16.4,158", ",158"),
+            "log.csv",
+            &Columns::default(),
+        )
+        .unwrap_err();
+        assert!(
+            e.message.contains("line 4: weld_voltage_v = \"\""),
+            "{}",
+            e.message
+        );
     }
 
     #[test]

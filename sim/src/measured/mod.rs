@@ -18,7 +18,18 @@ fn at_line(file: &str, line: usize, what: impl std::fmt::Display) -> Error {
     Error::input(format!("{file} line {line}: {what}"))
 }
 
-/// The fields of a CSV or whitespace-separated line.
+/// The cells of a logger's line: split on each comma (or, where it has none, each semicolon),
+/// trimmed, an empty cell kept (a reading missing keeps its column's place, and the columns
+/// after it theirs); on runs of whitespace where it has neither.
+fn cells(line: &str) -> Vec<&str> {
+    match [',', ';'].into_iter().find(|&c| line.contains(c)) {
+        Some(c) => line.split(c).map(str::trim).collect(),
+        None => line.split_whitespace().collect(),
+    }
+}
+
+/// The fields of a CSV or whitespace-separated line of numbers alone, where no cell is ever
+/// empty (a property table, a plan's path.csv read back).
 fn fields(line: &str) -> Vec<&str> {
     line.split(|c: char| c == ',' || c == ';' || c.is_whitespace())
         .filter(|f| !f.is_empty())

@@ -73,10 +73,7 @@ fn read(
         return Ok(Line::Nothing);
     }
     // Empty fields are readings missing: split on the separator, not on runs of it.
-    let f: Vec<&str> = match text.contains(',') {
-        true => text.split(',').map(str::trim).collect(),
-        false => text.split_whitespace().collect(),
-    };
+    let f = super::cells(text);
     if n == 1 && f[0].parse::<f64>().is_err() {
         return Ok(Line::Nothing);
     }

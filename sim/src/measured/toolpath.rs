@@ -6,7 +6,7 @@
 //! above 0), or `_POWER_` (deposits at the scenario's power: ORNL's event series leaves the
 //! power to the machine log). Times must increase.
 
-use super::{at_line, fields};
+use super::{at_line, cells};
 use crate::error::Result;
 
 /// Where the torch is at a time, and what it did on the way there.
@@ -25,8 +25,8 @@ pub fn event_series(text: &str, file: &str) -> Result<Vec<Waypoint>> {
     let mut out: Vec<Waypoint> = Vec::new();
     for (k, line) in text.lines().enumerate() {
         let n = k + 1;
-        let f = fields(line);
-        if f.is_empty() || line.trim_start().starts_with('#') {
+        let f = cells(line);
+        if f.iter().all(|c| c.is_empty()) || line.trim_start().starts_with('#') {
             continue;
         }
         // A header: the first line whose first field is not a number.
@@ -157,5 +157,12 @@ mod tests {
         let e = event_series("0,0,0\n", "p.csv").unwrap_err();
         assert!(e.message.contains("3 fields"), "{}", e.message);
         assert_eq!(e.exit_code(), 2);
+        // An empty cell is named where it stands, not read as the next column's value: the
+        // sixth column (a note the logger adds) is not the `on` flag.
+        let e = event_series("0,0,0,0,0,1\n1,1,,0,1,1\n", "p.csv").unwrap_err();
+        assert!(e.message.contains("line 2: y_mm = \"\""), "{}", e.message);
+        // Semicolons and whitespace separate as commas do.
+        let w = event_series("0;0;0;0;0\n1 2 0 0 1\n", "p.csv").unwrap();
+        assert_eq!(w[1].position_mm, [2.0, 0.0, 0.0]);
     }
 }
