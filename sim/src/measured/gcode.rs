@@ -4,8 +4,9 @@
 //! and the codes that strike and stop the arc, named by the scenario (welding cells differ:
 //! ORNL's Wolf dialect uses M101 and M103). Comments (`;` and parentheses) are dropped; words
 //! may run together (`M5T2D1F0`); a line that is not G-code (Wolf's `BEGINNING LAYER`) is
-//! skipped; codes that would put the path after them in another frame (G10, G28, G30, G53,
-//! G92) are refused; any other code is ignored. Time is distance over feed, or over
+//! skipped; codes that would put the path after them in another frame or time it otherwise
+//! (G10, G28, G30, G53, G92, G93, G95, a rotary axis turned) are refused; any other code is
+//! ignored. Time is distance over feed, or over
 //! `travel_mm_s` with the arc off where the controller moves faster than programmed.
 
 use super::at_line;
@@ -175,13 +176,16 @@ fn apply_codes(line: &Line, modal: &mut Modal) -> Result<Codes> {
             910 => modal.relative = true,
             901 => modal.absolute_centre = true,
             911 => modal.absolute_centre = false,
-            // Codes that move to, or redefine, a frame this reader does not know: the path
-            // after them would be laid somewhere else.
-            100 | 280 | 300 | 530 | 920 => {
+            // Codes that move to, or redefine, a frame this reader does not know, or time a
+            // move otherwise: the path after them would be laid somewhere else, or at another
+            // pace (G93 is what `waamtwin export --format gcode` writes, with its A and C).
+            100 | 280 | 300 | 530 | 920 | 930 | 950 => {
                 let what = match g {
                     100 => "a frame's offsets set",
                     280 | 300 => "a return to a home position",
                     530 => "a move in the machine's frame",
+                    930 => "inverse-time feed",
+                    950 => "feed per spindle turn",
                     _ => "the current point redefined",
                 };
                 return Err(line.fail(format!(
@@ -312,6 +316,20 @@ pub fn waypoints(text: &str, file: &str, d: &Dialect) -> Result<Vec<Waypoint>> {
                 });
             }
             continue;
+        }
+        // A 5-axis program's X, Y and Z are in the turned table's frame (`waamtwin export`'s
+        // program.nc): laid as they stand they would be another path. A rotary word on any
+        // line but a dwell turns it.
+        if let Some((axis, v)) = line
+            .words
+            .iter()
+            .find(|(l, v)| matches!(l, 'A' | 'B' | 'C') && v.parse::<f64>().is_ok_and(|x| x != 0.0))
+        {
+            return Err(line.fail(format!(
+                "{axis}{v} (a rotary axis turned); expected a 3-axis program: a tilt-rotary \
+                 table's X, Y and Z are in its turned frame (a plan's path.csv is replayed by \
+                 `waamtwin replay` on the part's own scenario)"
+            )));
         }
         let moves = ['X', 'Y', 'Z'].iter().any(|&l| line.word(l).is_some());
         // F is read where the line moves, names a motion or stands alone (with a line number
@@ -648,6 +666,11 @@ mod tests {
             ("G1 F600\nG2 X10 Y0 I5 R5\n", "both its centre"),
             ("G1 F600\nG2 X0 Y0 I5 P3\n", "P3 turns"),
             ("G1e X1 F1\n", "line 1: G1e; expected a finite number"),
+            ("G93 G1 X1 F60\n", "line 1: G93 (inverse-time feed)"),
+            (
+                "G1 X1 F60\nG1 X2 A0 C0\nG1 X3 A15 C90\n",
+                "line 3: A15 (a rotary axis turned)",
+            ),
             ("G91 G1 X1e308 F1e9\nX1e308\n", "line 2: a move to [inf"),
             (
                 "G1 X1e308 F1e300\nG2 X1e308 Y0 I1e308\n",
