@@ -442,8 +442,8 @@ fn centre_of_radius(
 
 /// The chords of the arc (a helix where z changes) from `from` to `to` about `centre` in the
 /// XY plane, each point after `from`, the last `to` itself: a whole turn where they coincide;
-/// and the arc's length a chord, each spanning the same angle. The radius runs from the
-/// start's to the end's (they may differ by `ARC_END_MM`).
+/// and the length of arc each chord stands for (each spans the same angle). The radius runs
+/// from the start's to the end's (they may differ by `ARC_END_MM`).
 fn arc_chords(
     from: [f64; 3],
     to: [f64; 3],
