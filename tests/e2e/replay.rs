@@ -536,3 +536,45 @@ fn a_ring_programmed_in_arcs_replays_as_the_ring_in_straight_moves() {
     }
     assert!(compared > pa.len() * 3 / 4, "{compared} of {}", pa.len());
 }
+
+/// A probe placed where no metal comes (50 mm above a track on the plate: a z in another
+/// frame) reads nothing; the replay runs, and says so on stderr and in replay.json's warnings
+/// with the probe's name and place, where it wrote an empty comparison without a word. The
+/// probe beside the track reads, and is not named.
+#[test]
+fn a_probe_that_reads_nothing_is_named() {
+    let dir = scratch("replay_probe_unread");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("path.csv"),
+        "t_s,x_mm,y_mm,z_mm,on\n0,-20,0,2,0\n4,20,0,2,1\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("p.csv"), "t_s,a,b\n0,20,20\n5,100,100\n10,80,80\n").unwrap();
+    let scenario = dir.join("s.toml");
+    std::fs::write(
+        &scenario,
+        "[toolpath]\nfile = \"path.csv\"\n[process]\npower_w = 1500.0\nefficiency = 0.8\n\
+         bead_width_mm = 4.0\nlayer_height_mm = 2.0\n[material]\npreset = \"G3Si\"\n[thermal]\n\
+         model = \"voxel\"\nplate_mm = [60.0, 20.0, 6.0]\n[probes]\nfile = \"p.csv\"\n\
+         unit = \"C\"\ntime_column = 0\npoints = [\n{ name = \"beside\", column = 1, x_mm = 0.0, \
+         y_mm = 5.0, z_mm = 0.0 },\n{ name = \"aloft\", column = 2, x_mm = 0.0, y_mm = 5.0, \
+         z_mm = 50.0 },\n]\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let err = succeed("replay", &scenario, &out);
+    for needle in [
+        "1 of the probes read nothing",
+        "aloft at (0.0, 5.0, 50.0) mm",
+        "z_offset_mm",
+    ] {
+        assert!(err.contains(needle), "{needle}: {err}");
+    }
+    assert!(!err.contains("beside at"), "{err}");
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+    assert_eq!(r["warnings"][0]["kind"], "probe_unread", "{r}");
+    assert_eq!(r["warnings"].as_array().unwrap().len(), 1, "{r}");
+    assert!(r["probes"][0]["samples"].as_u64().unwrap() >= 1, "{r}");
+}

@@ -122,9 +122,18 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         thermal::Cells::ThinWall { wall_nodes, .. } => ("thin-wall", None, Some(wall_nodes)),
     };
     let metal = crate::pipeline::resolution::metal(&result, &deps);
+    let unread: Vec<(&str, [f64; 3])> = s.probes.as_ref().map_or(Vec::new(), |p| {
+        let at = |name: &str| p.points.iter().find(|q| q.name == name);
+        compared
+            .iter()
+            .filter(|c| c.agreement.is_none())
+            .filter_map(|c| at(&c.name).map(|q| (c.name.as_str(), q.position_m.map(|x| x * 1e3))))
+            .collect()
+    });
     let after: Vec<_> = metal
         .and_then(crate::pipeline::resolution::Metal::warning)
         .into_iter()
+        .chain(crate::pipeline::resolution::unread_probes(&unread))
         .collect();
     for w in &after {
         eprintln!("{}", w.line);
