@@ -671,6 +671,10 @@ mod tests {
                 "G1 X1 F60\nG1 X2 A0 C0\nG1 X3 A15 C90\n",
                 "line 3: A15 (a rotary axis turned)",
             ),
+            (
+                "G1 X1 F60\nC90\nG1 X3\n",
+                "line 2: C90 (a rotary axis turned)",
+            ),
             ("G91 G1 X1e308 F1e9\nX1e308\n", "line 2: a move to [inf"),
             (
                 "G1 X1e308 F1e300\nG2 X1e308 Y0 I1e308\n",
