@@ -6,8 +6,8 @@
 //! may run together (`M5T2D1F0`); a line that is not G-code (Wolf's `BEGINNING LAYER`) is
 //! skipped; codes that would put the path after them in another frame or time it otherwise
 //! (G10, G28, G30, G53, G92, G93, G95, a rotary axis turned) are refused; any other code is
-//! ignored. Time is distance over feed, or over
-//! `travel_mm_s` with the arc off where the controller moves faster than programmed.
+//! ignored. Time is distance over feed, or over `travel_mm_s` with the arc off where the
+//! controller moves faster than programmed.
 
 use super::at_line;
 use super::toolpath::Waypoint;
@@ -59,7 +59,7 @@ fn words(line: &str) -> Vec<(char, &str)> {
     out
 }
 
-/// The most waypoints a program may make (about 0.6 GB of them): an arc's chords are the only
+/// The most waypoints a program may make (0.56 GB of them at 56 bytes each): an arc's chords are the only
 /// waypoints a line makes more than one of, up to `ARC_CHORDS_PER_TURN` a turn, so a short file
 /// of arcs could otherwise claim far more memory than it holds.
 pub const MOST_WAYPOINTS: usize = 10_000_000;
