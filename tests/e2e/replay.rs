@@ -111,7 +111,9 @@ fn gamma_substrate_against_its_thermocouples() {
     let probes = r["probes"].as_array().unwrap();
     assert_eq!(probes.len(), 4);
     for p in probes {
-        assert_eq!(p["samples"].as_u64().unwrap(), 1570, "{p}");
+        // Every reading of the file, the last (785.5 s, the run's end) among them since
+        // 2026-11-30: it was left past the probe's trace.
+        assert_eq!(p["samples"].as_u64().unwrap(), 1571, "{p}");
         let bias = p["bias_c"].as_f64().unwrap();
         assert!((-20.0..0.0).contains(&bias), "{p}");
     }
@@ -538,9 +540,9 @@ fn a_ring_programmed_in_arcs_replays_as_the_ring_in_straight_moves() {
 }
 
 /// A probe placed where no metal comes (50 mm above a track on the plate: a z in another
-/// frame) reads nothing; the replay runs, and says so on stderr and in replay.json's warnings
-/// with the probe's name and place, where it wrote an empty comparison without a word. The
-/// probe beside the track reads, and is not named.
+/// frame) reads nothing; the replay and the calibration run, and say so on stderr and in their
+/// json's warnings with the probe's name and place, where they wrote an empty comparison
+/// without a word. The probe beside the track reads, and is not named.
 #[test]
 fn a_probe_that_reads_nothing_is_named() {
     let dir = scratch("replay_probe_unread");
@@ -576,5 +578,23 @@ fn a_probe_that_reads_nothing_is_named() {
         serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
     assert_eq!(r["warnings"][0]["kind"], "probe_unread", "{r}");
     assert_eq!(r["warnings"].as_array().unwrap().len(), 1, "{r}");
-    assert!(r["probes"][0]["samples"].as_u64().unwrap() >= 1, "{r}");
+    // The readings at 5 s and at 10 s, the run's end, where the trace ends too (the one at
+    // 0 s is before any metal); before 2026-11-30 the last was past the trace and left out.
+    assert_eq!(r["probes"][0]["samples"].as_u64().unwrap(), 2, "{r}");
+
+    // Calibrated, the same: said on stderr and in calibration.json. Its fit window, the first
+    // half, ends at the reading at 5 s, which its runs, stopped there, now read (before, the
+    // fit found no sample and refused).
+    let mut text = std::fs::read_to_string(&scenario).unwrap();
+    text.push_str("[calibrate]\nparameters = [{ name = \"efficiency\", low = 0.5, high = 0.95 }]\nmax_runs = 4\n");
+    std::fs::write(&scenario, text).unwrap();
+    let out = dir.join("calibrated");
+    let err = succeed("calibrate", &scenario, &out);
+    assert!(err.contains("aloft at (0.0, 5.0, 50.0) mm"), "{err}");
+    assert!(!err.contains("beside at"), "{err}");
+    let c: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("calibration.json")).unwrap()).unwrap();
+    assert_eq!(c["warnings"][0]["kind"], "probe_unread", "{c}");
+    assert_eq!(c["warnings"].as_array().unwrap().len(), 1, "{c}");
+    assert_eq!(c["fit_samples"].as_u64().unwrap(), 1, "{c}");
 }

@@ -461,8 +461,10 @@ impl WallRun {
         }
     }
 
-    /// Keep each probe's temperature, at most every `probe_every` seconds.
-    fn sample_probes(&mut self) {
+    /// Keep each probe's temperature, at most every `every` seconds (the settings'
+    /// `probe_every` as the run goes; 0 at its end, so that a trace holds the run's last
+    /// moment: a reading there is compared, not left past the trace).
+    fn sample_probes(&mut self, every: f64) {
         let (min_node, cell) = (self.settings.min_node, self.settings.plate.cell);
         let (net, positions, nw) = (
             &self.model.network,
@@ -484,11 +486,10 @@ impl WallRun {
                     .min_by(|a, b| a.0.total_cmp(&b.0))
                     .map(|(_, k)| k);
             }
-            let every = self.settings.probe_every;
             if trace
                 .time
                 .last()
-                .is_some_and(|&t| self.now - t < every - 1e-12)
+                .is_some_and(|&t| self.now - t < (every - 1e-12).max(1e-9))
             {
                 continue;
             }
@@ -533,7 +534,7 @@ impl WallRun {
             });
             self.next_snapshot += 1;
         }
-        self.sample_probes();
+        self.sample_probes(self.settings.probe_every);
     }
 }
 
@@ -728,6 +729,7 @@ impl HeatRun for WallRun {
     }
 
     fn finish(mut self) -> RunResult {
+        self.sample_probes(0.0);
         let support = (0..self.points.len()).map(|i| self.support(i)).collect();
         for (i, p) in self.points.iter_mut().enumerate() {
             let node = self.model.node_of[i];

@@ -586,7 +586,13 @@ fn a_probe_reads_once_metal_is_there() {
     let r = model.simulate(&deps).unwrap();
     let (here, away) = (&r.probes[0], &r.probes[1]);
     assert!(away.temperature.iter().all(|t| t.is_nan()));
-    assert!(here.time.windows(2).all(|w| w[1] - w[0] >= 0.5 - 1e-9));
+    // As often as asked, but for the run's last moment, which the trace always holds.
+    let n = here.time.len();
+    assert!(
+        here.time[..n - 1]
+            .windows(2)
+            .all(|w| w[1] - w[0] >= 0.5 - 1e-9)
+    );
     for (t, k) in here.time.iter().zip(&here.temperature) {
         if *t < deps[4].arc_start() {
             assert!(k.is_nan(), "{k} K at {t} s, before any metal there");
@@ -597,6 +603,45 @@ fn a_probe_reads_once_metal_is_there() {
     }
     let hottest = here.temperature.iter().copied().fold(f64::NAN, f64::max);
     assert!(hottest > 1000.0, "{hottest} K: the arc passes over it");
+}
+
+/// A probe's trace holds the run's last moment, wherever its interval falls: a replay ends at
+/// its last reading, and a reading past the trace's end is compared with nothing. Before,
+/// the trace ended at the last step a whole interval after the sample before it. Every model.
+#[test]
+fn a_probe_trace_ends_where_the_run_does() {
+    let deps = schedule();
+    for mut model in models(Material::g3si()) {
+        model.set_probes(vec![deps[5].position], 7.0);
+        let mut run = model.start(&deps).unwrap();
+        thermal::run::replay(&mut run, &deps).unwrap();
+        run.cool(3.3).unwrap();
+        let (end, metal) = (run.now(), run.temperature_of(5));
+        let r = run.finish();
+        let (tr, name) = (&r.probes[0], model.name());
+        let n = tr.time.len();
+        assert_eq!(
+            tr.time.last(),
+            Some(&end),
+            "{name}: {:?}",
+            &tr.time[n - 3..]
+        );
+        assert!(
+            tr.time.windows(2).all(|w| w[1] > w[0]),
+            "{name}: one sample a time"
+        );
+        assert!(
+            tr.time[..n - 1]
+                .windows(2)
+                .all(|w| w[1] - w[0] >= 7.0 - 1e-9),
+            "{name}: as often as asked before the end"
+        );
+        let last = tr.temperature[n - 1];
+        assert!(
+            last.is_finite() && (last - metal).abs() < 0.2 * (metal - 293.15),
+            "{name}: {last} K at the end, the probe's deposit at {metal} K"
+        );
+    }
 }
 
 /// A disc plate: the voxel model switches on the cells inside it (π/4 of the box's, to the

@@ -5,7 +5,7 @@
 //! at every sample), probes.png.
 
 use super::checkpoint;
-use super::replay::{measured, names, probes_csv, set_up};
+use super::replay::{measured, names, probes_csv, set_up, unread};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
 use crate::pipeline::calibrate::{self, Task};
@@ -116,6 +116,11 @@ pub fn run(
     ];
     let rms = |o: Option<(f64, usize)>| o.map(|o| o.0);
     let compared = compare(&names_p, &m, &done.after, [0.0, end_s], &[]);
+    // A probe that read nothing gave the fit nothing: said as the replay says it.
+    let warnings: Vec<_> = unread(p, &compared).into_iter().collect();
+    for w in &warnings {
+        eprintln!("{}", w.line);
+    }
     dir.write("probes.csv", probes_csv(&compared).as_bytes())?;
     let parameters: Vec<serde_json::Value> = cal
         .parameters
@@ -143,6 +148,7 @@ pub fn run(
             // What `efficiency` is the efficiency of: a scenario with another heat source
             // does not take it (scenario::calibration).
             "heat_source": s.raw.process.source,
+            "warnings": super::simulate::warnings_json(&[], &warnings),
             "fit_s": fit_w,
             "holdout_s": hold_w,
             "rms_fit_c": rms(fit_after),

@@ -12,6 +12,7 @@ use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{
     self, Compared, Pass, Replay, Replayed, in_celsius, overall, sampling_interval,
 };
+use crate::pipeline::resolution::{self, Warning};
 use crate::progress::Stage;
 use crate::scenario::Scenario;
 use crate::scenario::replay::{MaterialSpec, Probes, ReplayScenario, ToolpathFormat};
@@ -58,6 +59,18 @@ fn longest_segment(path: &[toolpath::Waypoint]) -> (f64, f64) {
 /// The probes' names, in the scenario's order.
 pub(crate) fn names(p: &Probes) -> Vec<String> {
     p.points.iter().map(|q| q.name.clone()).collect()
+}
+
+/// The warning that names the probes of `p` that compared no reading
+/// ([`resolution::unread_probes`]).
+pub(crate) fn unread(p: &Probes, compared: &[Compared]) -> Option<Warning> {
+    let at = |name: &str| p.points.iter().find(|q| q.name == name);
+    let unread: Vec<(&str, [f64; 3])> = compared
+        .iter()
+        .filter(|c| c.agreement.is_none())
+        .filter_map(|c| at(&c.name).map(|q| (c.name.as_str(), q.position_m.map(|x| x * 1e3))))
+        .collect();
+    resolution::unread_probes(&unread)
 }
 
 pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<String> {
@@ -121,26 +134,17 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
         thermal::Cells::Voxel { voxels, .. } => ("voxel", Some(voxels), None),
         thermal::Cells::ThinWall { wall_nodes, .. } => ("thin-wall", None, Some(wall_nodes)),
     };
-    let metal = crate::pipeline::resolution::metal(&result, &deps);
-    let unread: Vec<(&str, [f64; 3])> = s.probes.as_ref().map_or(Vec::new(), |p| {
-        let at = |name: &str| p.points.iter().find(|q| q.name == name);
-        compared
-            .iter()
-            .filter(|c| c.agreement.is_none())
-            .filter_map(|c| at(&c.name).map(|q| (c.name.as_str(), q.position_m.map(|x| x * 1e3))))
-            .collect()
-    });
+    let metal = resolution::metal(&result, &deps);
     let after: Vec<_> = metal
-        .and_then(crate::pipeline::resolution::Metal::warning)
+        .and_then(resolution::Metal::warning)
         .into_iter()
-        .chain(crate::pipeline::resolution::unread_probes(&unread))
+        .chain(s.probes.as_ref().and_then(|p| unread(p, &compared)))
         .collect();
     for w in &after {
         eprintln!("{}", w.line);
     }
     // As simulate's thermal.json.
-    let before =
-        crate::pipeline::resolution::before_run(&r.values.thermal, &deps, "thermal.voxel_mm");
+    let before = resolution::before_run(&r.values.thermal, &deps, "thermal.voxel_mm");
     let warnings = super::simulate::warnings_json(&before, &after);
     let overall = overall(&compared);
     dir.write_json(

@@ -1858,7 +1858,7 @@ impl VoxelRun {
     /// What the run keeps of the field after a step: probes falling due, snapshots reached,
     /// traces of deposits 0..laid.
     fn record(&mut self, laid: usize) {
-        self.sample_probes();
+        self.sample_probes(self.model.settings.probe_every);
         self.model.keep(laid, self.now, &mut self.snapshots);
         for tr in &mut self.traces {
             if tr.deposit < laid {
@@ -1926,14 +1926,15 @@ impl VoxelRun {
         Ok(())
     }
 
-    /// Keep each probe's temperature, at most every `probe_every` seconds.
-    fn sample_probes(&mut self) {
-        let every = self.model.settings.probe_every;
+    /// Keep each probe's temperature, at most every `every` seconds (the settings'
+    /// `probe_every` as the run goes; 0 at its end, so that a trace holds the run's last
+    /// moment: a reading there is compared, not left past the trace).
+    fn sample_probes(&mut self, every: f64) {
         for (k, trace) in self.probes.iter_mut().enumerate() {
             if trace
                 .time
                 .last()
-                .is_some_and(|&t| self.now - t < every - 1e-12)
+                .is_some_and(|&t| self.now - t < (every - 1e-12).max(1e-9))
             {
                 continue;
             }
@@ -2129,6 +2130,7 @@ impl HeatRun for VoxelRun {
     }
 
     fn finish(mut self) -> RunResult {
+        self.sample_probes(0.0);
         let support = (0..self.deps.len()).map(|i| self.support(i)).collect();
         let m = &self.model;
         // A deposit with no voxel of its own shares the metal of the one before it.

@@ -34,12 +34,19 @@ pub fn pair(t_s: &[f64], measured_c: &[Option<f64>], trace: &ProbeTrace) -> Vec<
         .collect()
 }
 
+/// How far past a trace's last time a reading still reads it, s: the run ends at the last
+/// reading, its clock there summed step by step (a microsecond is far below any logger's).
+const END_SLACK_S: f64 = 1e-6;
+
 /// The trace at time t, K; None outside it or where it does not read.
 fn at(trace: &ProbeTrace, t: f64) -> Option<f64> {
     let k = trace.time.partition_point(|&x| x < t);
     let v = match k {
         k if trace.time.get(k) == Some(&t) => trace.temperature[k],
         0 => return None,
+        k if k == trace.time.len() && t - trace.time[k - 1] <= END_SLACK_S => {
+            trace.temperature[k - 1]
+        }
         k if k == trace.time.len() => return None,
         k => {
             let (t0, t1) = (trace.time[k - 1], trace.time[k]);
@@ -134,4 +141,35 @@ pub fn errors(pairs: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64)> {
         sum += p - m;
     }
     (n > 0).then(|| ((sq / n as f64).sqrt(), sum / n as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reading at the trace's end reads it (within the run's clock's slack past it), one
+    /// inside reads the line between its neighbours, one before the trace or well past it
+    /// reads nothing.
+    #[test]
+    fn a_reading_pairs_inside_the_trace_and_at_its_end() {
+        let mut trace = ProbeTrace::new([0.0; 3]);
+        (trace.time, trace.temperature) = (vec![1.0, 3.0, 4.0], vec![400.0, 600.0, 500.0]);
+        let c = |k: f64| k - C;
+        let times = [0.5, 1.0, 2.0, 4.0, 4.0 + 5e-7, 4.01];
+        let measured = vec![Some(0.0); times.len()];
+        let got: Vec<(f64, f64)> = pair(&times, &measured, &trace)
+            .into_iter()
+            .map(|s| (s.0, s.2))
+            .collect();
+        let want = [
+            (1.0, c(400.0)),
+            (2.0, c(500.0)),
+            (4.0, c(500.0)),
+            (4.0 + 5e-7, c(500.0)),
+        ];
+        assert_eq!(got.len(), want.len(), "{got:?}");
+        for (g, w) in got.iter().zip(want) {
+            assert!(g.0 == w.0 && (g.1 - w.1).abs() < 1e-9, "{got:?}");
+        }
+    }
 }
