@@ -25,7 +25,10 @@ pub struct Dialect {
     pub travel_mm_s: Option<f64>,
 }
 
-/// The words of a line: (letter, number text), comments removed.
+/// The words of a line: (letter, number text), comments removed. A number is a sign, digits
+/// and a point, as RS-274 and every controller read it: no exponent, so that `X10E5` (a
+/// printer's extrusion run into a coordinate, as posts that drop spaces write it) is X 10 and
+/// E 5, where it was read as X 1 000 000.
 fn words(line: &str) -> Vec<(char, &str)> {
     let code = line.split(';').next().unwrap_or("");
     let mut out = Vec::new();
@@ -41,22 +44,26 @@ fn words(line: &str) -> Vec<(char, &str)> {
         }
         if b[i].is_ascii_alphabetic() {
             let letter = (b[i] as char).to_ascii_uppercase();
-            let start = i + 1;
-            let mut end = start;
-            while end < b.len() && (b[end].is_ascii_digit() || b"+-.eE".contains(&b[end])) {
-                // An 'E' that starts a word of its own is a letter, not an exponent.
-                if (b[end] == b'e' || b[end] == b'E') && end == start {
-                    break;
-                }
+            let start = skip_blanks(b, i + 1);
+            let mut end = start + usize::from(b.get(start).is_some_and(|c| b"+-".contains(c)));
+            while end < b.len() && (b[end].is_ascii_digit() || b[end] == b'.') {
                 end += 1;
             }
             out.push((letter, &code[start..end]));
-            i = end.max(start);
+            i = end.max(i + 1);
             continue;
         }
         i += 1;
     }
     out
+}
+
+/// Past the spaces and tabs from `i`: a controller reads `X 10` as `X10`.
+fn skip_blanks(b: &[u8], mut i: usize) -> usize {
+    while i < b.len() && (b[i] == b' ' || b[i] == b'\t') {
+        i += 1;
+    }
+    i
 }
 
 /// The most waypoints a program may make (0.56 GB of them at 56 bytes each): an arc's chords are the only
@@ -636,6 +643,43 @@ mod tests {
         assert!((w[5].t_s - w[4].t_s - back).abs() < 1e-9);
     }
 
+    /// Words packed without spaces, a printer's E among them, and a number spaced from its
+    /// letter read as a controller reads them: `X10E5` is X 10 (not 1e6 mm), `X 10` is X 10.
+    #[test]
+    fn packed_words_and_spaced_numbers() {
+        let g = "G1F600X10E5Y2\nG1X-3.5E-1.25Y+4\nG1 X 7 Y\t8 E 1\n";
+        let w = waypoints(g, "p.nc", &standard()).unwrap();
+        let at: Vec<[f64; 3]> = w.iter().map(|w| w.position_mm).collect();
+        assert_eq!(
+            at,
+            [
+                [0.0; 3],
+                [10.0, 2.0, 0.0],
+                [-3.5, 4.0, 0.0],
+                [7.0, 8.0, 0.0]
+            ]
+        );
+        assert!(
+            (w[1].t_s - 104f64.sqrt() / 10.0).abs() < 1e-12,
+            "{:?}",
+            w[1]
+        );
+    }
+
+    /// `text` with each `1eN` written out as G-code writes a number (1 and N zeros, or a point,
+    /// −N − 1 zeros and 1).
+    fn tens(text: &str) -> String {
+        let mut out = text.to_string();
+        for n in [308, 300, 9, -300] {
+            let written = match n {
+                n if n >= 0 => format!("1{}", "0".repeat(n as usize)),
+                n => format!("0.{}1", "0".repeat((-n - 1) as usize)),
+            };
+            out = out.replace(&format!("1e{n}"), &written);
+        }
+        out
+    }
+
     #[test]
     fn what_it_cannot_lay_is_refused_naming_the_line() {
         for (g, says) in [
@@ -665,7 +709,7 @@ mod tests {
             ("G1 F600\nG2 X10 Y0\n", "neither its centre"),
             ("G1 F600\nG2 X10 Y0 I5 R5\n", "both its centre"),
             ("G1 F600\nG2 X0 Y0 I5 P3\n", "P3 turns"),
-            ("G1e X1 F1\n", "line 1: G1e; expected a finite number"),
+            ("G1 X- F1\n", "line 1: X-; expected a finite number"),
             ("G93 G1 X1 F60\n", "line 1: G93 (inverse-time feed)"),
             (
                 "G1 X1 F60\nG1 X2 A0 C0\nG1 X3 A15 C90\n",
@@ -685,7 +729,9 @@ mod tests {
                 "expected a move the program's clock can time",
             ),
         ] {
-            let e = waypoints(g, "p.nc", &standard()).unwrap_err();
+            // G-code has no exponents: the powers of ten written out.
+            let g = tens(g);
+            let e = waypoints(&g, "p.nc", &standard()).unwrap_err();
             assert!(e.message.contains(says), "{g:?}: {}", e.message);
         }
     }
