@@ -39,6 +39,41 @@ pub fn waamtwin(args: &[&str]) -> Output {
         .expect("run waamtwin")
 }
 
+/// `waamtwin ARGS` as [`waamtwin`], killed past `limit`: a refusal that regresses into a run
+/// (weeks of cooling) fails the test instead of hanging it. stdout and stderr go to files, so
+/// that a long run cannot fill a pipe while it is waited on.
+pub fn waamtwin_within(args: &[&str], limit: std::time::Duration) -> Output {
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = scratch(&format!("within_{call}"));
+    let out_file = |name: &str| std::fs::File::create(dir.join(name)).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_waamtwin"))
+        .args(args)
+        .current_dir(root())
+        .stdout(out_file("stdout"))
+        .stderr(out_file("stderr"))
+        .spawn()
+        .expect("run waamtwin");
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("waamtwin {args:?} still running after {limit:?}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let read = |name: &str| std::fs::read(dir.join(name)).unwrap();
+    Output {
+        status,
+        stdout: read("stdout"),
+        stderr: read("stderr"),
+    }
+}
+
 /// The tests that bring up outside programs (the reference readers and the Python package from
 /// PyPI, a real single-node Slurm and Chromium installed as root, an OPC UA server, rerun) are
 /// compiled as ignored, with their reason, unless this variable was 1 when they were built

@@ -1,7 +1,7 @@
 //! `waamtwin replay` on the measured builds (`crate::data`: ignored, with the reason, where
 //! they are absent), and its bad input.
 
-use crate::{assert_input_error, read_csv, root, scratch, waamtwin};
+use crate::{assert_input_error, read_csv, root, scratch, waamtwin, waamtwin_within};
 use std::path::{Path, PathBuf};
 
 /// Run `waamtwin COMMAND scenarios/SCENARIO -o scratch/NAME`, expect success, and return the
@@ -597,4 +597,54 @@ fn a_probe_that_reads_nothing_is_named() {
     assert_eq!(c["warnings"][0]["kind"], "probe_unread", "{c}");
     assert_eq!(c["warnings"].as_array().unwrap().len(), 1, "{c}");
     assert_eq!(c["fit_samples"].as_u64().unwrap(), 1, "{c}");
+}
+
+/// Readings on another clock (a logger's Unix time: 1.77e9 s, where the path runs 0–4 s) are
+/// refused by replay and calibrate, naming the file, both ranges and the fix, where the replay
+/// set out to cool the part for 1.77e9 s (its estimate: 22 days) before comparing a reading.
+#[test]
+fn readings_on_another_clock_are_refused() {
+    let dir = scratch("replay_other_clock");
+    std::fs::write(
+        dir.join("path.csv"),
+        "t_s,x_mm,y_mm,z_mm,on\n0,-20,0,2,0\n4,20,0,2,1\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("unix.csv"),
+        "t_s,a\n1767225600,20\n1767225605,100\n1767225610,80\n",
+    )
+    .unwrap();
+    let scenario = dir.join("s.toml");
+    std::fs::write(
+        &scenario,
+        "[toolpath]\nfile = \"path.csv\"\n[process]\npower_w = 1500.0\nefficiency = 0.8\n\
+         bead_width_mm = 4.0\nlayer_height_mm = 2.0\n[material]\npreset = \"G3Si\"\n[thermal]\n\
+         model = \"voxel\"\nplate_mm = [60.0, 20.0, 6.0]\n[probes]\nfile = \"unix.csv\"\n\
+         unit = \"C\"\ntime_column = 0\npoints = [\n{ name = \"beside\", column = 1, x_mm = 0.0, \
+         y_mm = 5.0, z_mm = 0.0 },\n]\n[calibrate]\nparameters = [{ name = \"efficiency\", \
+         low = 0.5, high = 0.95 }]\n",
+    )
+    .unwrap();
+    for command in ["replay", "calibrate"] {
+        let out = waamtwin_within(
+            &[
+                command,
+                scenario.to_str().unwrap(),
+                "-o",
+                dir.join(command).to_str().unwrap(),
+            ],
+            std::time::Duration::from_secs(60),
+        );
+        assert_input_error(
+            &out,
+            &[
+                "unix.csv: readings from 1767225600 s to 1767225610 s",
+                "deposits from 0.0 s to 4.0 s",
+                "1.767e9 s after the build",
+                "toolpath.time_offset_s",
+            ],
+        );
+        assert!(!dir.join(command).exists(), "{command}: nothing written");
+    }
 }

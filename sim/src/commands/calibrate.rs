@@ -5,7 +5,7 @@
 //! at every sample), probes.png.
 
 use super::checkpoint;
-use super::replay::{measured, names, probes_csv, set_up, unread};
+use super::replay::{measured, names, on_one_clock, probes_csv, set_up, unread};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
 use crate::pipeline::calibrate::{self, Task};
@@ -52,6 +52,7 @@ pub fn run(
     };
     let (m, _) = measured(p, s.thermal.ambient_k)?;
     let r = set_up(&s, sampling_interval(&m.t_s))?;
+    on_one_clock(p, &m, &r)?;
     let end_s = r
         .deps
         .last()

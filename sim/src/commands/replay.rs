@@ -73,6 +73,33 @@ pub(crate) fn unread(p: &Probes, compared: &[Compared]) -> Option<Warning> {
     resolution::unread_probes(&unread)
 }
 
+/// The longest the model cools past the build's last deposit to meet the last reading, s:
+/// 116 days, `toolpath.time_offset_s`'s bound. Readings further on are on another clock (Unix
+/// time, a logger's own), and their replay would cool the part for weeks.
+const MOST_COOLING_S: f64 = 1e7;
+
+/// Refused where the readings `m` of `p` end more than [`MOST_COOLING_S`] after `r`'s last
+/// deposit: the file and the path are on two clocks.
+pub(crate) fn on_one_clock(p: &Probes, m: &probes::Series, r: &Replay) -> Result<()> {
+    let (Some(&first), Some(&last)) = (m.t_s.first(), m.t_s.last()) else {
+        return Ok(());
+    };
+    let start = r.deps.first().map_or(0.0, |d| d.arc_start());
+    let end = r.deps.last().map_or(0.0, |d| d.time);
+    if last - end <= MOST_COOLING_S {
+        return Ok(());
+    }
+    Err(Error::input(format!(
+        "{}: readings from {first} s to {last} s, the toolpath's deposits from {start:.1} s to \
+         {end:.1} s: its last reading {:.3e} s after the build; expected readings on the \
+         toolpath's clock, ending within {MOST_COOLING_S:.0e} s of the build (a time column of \
+         Unix or a logger's own time less the build's start; toolpath.time_offset_s moves the \
+         path by up to {MOST_COOLING_S:.0e} s)",
+        p.file.display(),
+        last - end
+    )))
+}
+
 pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<String> {
     // A part's scenario with its planned path.csv: the plan replayed as laid.
     if std::fs::read_to_string(scenario).is_ok_and(|t| Scenario::is_planned_path(&t)) {
@@ -88,6 +115,9 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     };
     let every_s = measured.as_ref().map_or(1.0, |m| sampling_interval(&m.t_s));
     let r = set_up(&s, every_s)?;
+    if let (Some(p), Some(m)) = (&s.probes, &measured) {
+        on_one_clock(p, m, &r)?;
+    }
     let end_s = r.deps.last().map_or(0.0, |d| d.time).max(
         measured
             .as_ref()
