@@ -648,3 +648,63 @@ fn readings_on_another_clock_are_refused() {
         assert!(!dir.join(command).exists(), "{command}: nothing written");
     }
 }
+
+/// A probe file read in the wrong unit is said, in replay.json's warnings and on stderr: in
+/// °C read as kelvin, every reading lies below ambient and is dropped (`probe_unit`, and each
+/// probe without a reading named by its column, `probe_empty`, not as a probe in the air); in
+/// kelvin read as °C, the cold part before the first arc reads 294 °C, near ambient's 293 K.
+/// Read in its own unit, neither is said.
+#[test]
+fn a_probe_file_in_the_wrong_unit_is_said() {
+    let dir = scratch("replay_probe_unit");
+    std::fs::write(
+        dir.join("path.csv"),
+        "t_s,x_mm,y_mm,z_mm,on\n2,-20,0,2,0\n6,20,0,2,1\n",
+    )
+    .unwrap();
+    let celsius = "t_s,a\n0,20\n5,100\n10,80\n";
+    let kelvin = "t_s,a\n0,294\n5,600\n10,500\n";
+    let run = |name: &str, readings: &str, unit: &str| {
+        std::fs::write(dir.join(format!("{name}.csv")), readings).unwrap();
+        let scenario = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &scenario,
+            format!(
+                "[toolpath]\nfile = \"path.csv\"\n[process]\npower_w = 1500.0\nefficiency = 0.8\n\
+                 bead_width_mm = 4.0\nlayer_height_mm = 2.0\n[material]\npreset = \"G3Si\"\n\
+                 [thermal]\nmodel = \"voxel\"\nplate_mm = [60.0, 20.0, 6.0]\n[probes]\n\
+                 file = \"{name}.csv\"\nunit = \"{unit}\"\ntime_column = 0\npoints = [\n\
+                 {{ name = \"beside\", column = 1, x_mm = 0.0, y_mm = 5.0, z_mm = 0.0 }},\n]\n"
+            ),
+        )
+        .unwrap();
+        let out = dir.join(format!("{name}_out"));
+        let err = succeed("replay", &scenario, &out);
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+        let kinds: Vec<String> = r["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["kind"].as_str().unwrap().to_string())
+            .collect();
+        (err, kinds)
+    };
+    let (err, kinds) = run("c_as_k", celsius, "K");
+    assert_eq!(kinds, ["probe_unit", "probe_empty"], "{err}");
+    assert!(
+        err.contains("3 of 3 readings lay more than 5 K below ambient"),
+        "{err}"
+    );
+    assert!(err.contains("beside column 1"), "{err}");
+    let (err, kinds) = run("k_as_c", kelvin, "C");
+    assert_eq!(kinds, ["probe_unit"], "{err}");
+    assert!(
+        err.contains("before the first arc (at 2.0 s) read 294.0 °C"),
+        "{err}"
+    );
+    for (name, readings, unit) in [("c", celsius, "C"), ("k", kelvin, "K")] {
+        let (err, kinds) = run(name, readings, unit);
+        assert!(kinds.is_empty(), "{name}: {kinds:?} {err}");
+    }
+}

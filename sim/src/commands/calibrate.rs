@@ -5,7 +5,7 @@
 //! at every sample), probes.png.
 
 use super::checkpoint;
-use super::replay::{measured, names, on_one_clock, probes_csv, set_up, unread};
+use super::replay::{doubts, measured, names, on_one_clock, probes_csv, set_up};
 use crate::error::{Error, Result};
 use crate::output::RunDir;
 use crate::pipeline::calibrate::{self, Task};
@@ -50,7 +50,7 @@ pub fn run(
             "{name}: no [probes]; a calibration needs measurements"
         )));
     };
-    let (m, _) = measured(p, s.thermal.ambient_k)?;
+    let (m, dropped) = measured(p, s.thermal.ambient_k)?;
     let r = set_up(&s, sampling_interval(&m.t_s))?;
     on_one_clock(p, &m, &r)?;
     let end_s = r
@@ -117,8 +117,9 @@ pub fn run(
     ];
     let rms = |o: Option<(f64, usize)>| o.map(|o| o.0);
     let compared = compare(&names_p, &m, &done.after, [0.0, end_s], &[]);
-    // A probe that read nothing gave the fit nothing: said as the replay says it.
-    let warnings: Vec<_> = unread(p, &compared).into_iter().collect();
+    // A probe that read nothing gave the fit nothing, a unit read wrong a fit to the wrong
+    // temperatures: said as the replay says them.
+    let warnings = doubts(p, (&m, dropped), &compared, &r);
     for w in &warnings {
         eprintln!("{}", w.line);
     }

@@ -10,7 +10,7 @@ use crate::measured::{gcode, machine_log, probes, table, toolpath};
 use crate::output::RunDir;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{
-    self, Compared, Pass, Replay, Replayed, in_celsius, overall, sampling_interval,
+    self, Compared, Pass, Replay, Replayed, doubts, in_celsius, overall, sampling_interval,
 };
 use crate::pipeline::resolution::{self, Warning};
 use crate::progress::Stage;
@@ -61,16 +61,35 @@ pub(crate) fn names(p: &Probes) -> Vec<String> {
     p.points.iter().map(|q| q.name.clone()).collect()
 }
 
-/// The warning that names the probes of `p` that compared no reading
-/// ([`resolution::unread_probes`]).
-pub(crate) fn unread(p: &Probes, compared: &[Compared]) -> Option<Warning> {
-    let at = |name: &str| p.points.iter().find(|q| q.name == name);
-    let unread: Vec<(&str, [f64; 3])> = compared
+/// What the readings `m` of `p` (`dropped` of them below ambient), compared as `compared` on
+/// the replay `r`, give reason to doubt: probes with no reading or none compared, and the
+/// file's unit ([`doubts`]).
+pub(crate) fn doubts(
+    p: &Probes,
+    (m, dropped): (&probes::Series, usize),
+    compared: &[Compared],
+    r: &Replay,
+) -> Vec<Warning> {
+    let met: Vec<doubts::Met<'_>> = p
+        .points
         .iter()
-        .filter(|c| c.agreement.is_none())
-        .filter_map(|c| at(&c.name).map(|q| (c.name.as_str(), q.position_m.map(|x| x * 1e3))))
+        .zip(&m.values)
+        .map(|(q, v)| doubts::Met {
+            name: &q.name,
+            position_mm: q.position_m.map(|x| x * 1e3),
+            column: q.column,
+            read: v.iter().any(Option::is_some),
+            compared: compared
+                .iter()
+                .any(|c| c.name == q.name && c.agreement.is_some()),
+        })
         .collect();
-    resolution::unread_probes(&unread)
+    let first_arc_s = r.deps.first().map_or(0.0, |d| d.arc_start());
+    let ambient_k = r.values.thermal.ambient_k;
+    doubts::unit(m, dropped, p.kelvin, ambient_k, first_arc_s)
+        .into_iter()
+        .chain(doubts::probes(&met))
+        .collect()
 }
 
 /// The longest the model cools past the build's last deposit to meet the last reading, s:
@@ -168,7 +187,10 @@ pub fn run(scenario: &Path, out: &Path, resume: checkpoint::Options) -> Result<S
     let after: Vec<_> = metal
         .and_then(resolution::Metal::warning)
         .into_iter()
-        .chain(s.probes.as_ref().and_then(|p| unread(p, &compared)))
+        .chain(match (&s.probes, &measured) {
+            (Some(p), Some(m)) => doubts(p, (m, dropped), &compared, &r),
+            _ => Vec::new(),
+        })
         .collect();
     for w in &after {
         eprintln!("{}", w.line);

@@ -20,7 +20,8 @@ use thermal::schedule::{Deposit, arc_lengths, bead_volume, segment_start};
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
     /// The function that found it: `coarse_deposits`, `coarse_voxels`, `floating_path`,
-    /// `metal_off` or `probe_unread`.
+    /// `metal_off`, or of a replay's readings ([`crate::pipeline::replay::doubts`])
+    /// `probe_empty`, `probe_unread` or `probe_unit`.
     pub kind: &'static str,
     pub line: String,
 }
@@ -294,31 +295,6 @@ pub fn metal(result: &RunResult, deps: &[Deposit]) -> Option<Metal> {
         }),
         Cells::ThinWall { .. } => None,
     }
-}
-
-/// The probes of a replay that read nothing (each name and place, mm): no metal lay within a
-/// cell of them while their file held readings, or none in the window judged. Said, not
-/// refused: a window may close before the metal reaches a probe; but a probe in the air (a z in
-/// another frame, a place in the wrong unit) would otherwise leave an empty comparison and a
-/// run that looks whole.
-pub fn unread_probes(unread: &[(&str, [f64; 3])]) -> Option<Warning> {
-    if unread.is_empty() {
-        return None;
-    }
-    let named: Vec<String> = unread
-        .iter()
-        .map(|(name, p)| format!("{name} at ({:.1}, {:.1}, {:.1}) mm", p[0], p[1], p[2]))
-        .collect();
-    Some(Warning {
-        kind: "probe_unread",
-        line: format!(
-            "warning: {} of the probes read nothing ({}): no metal lay within a cell of them \
-             while their readings ran; check [probes] points' x_mm, y_mm, z_mm against the path \
-             (and [toolpath] z_offset_mm)",
-            unread.len(),
-            named.join(", ")
-        ),
-    })
 }
 
 #[cfg(test)]

@@ -3,9 +3,11 @@
 //!
 //! [`schedule`] cuts the toolpath into deposits; [`Replay`] is a replay set up once (schedule,
 //! materials, probes) and run at any parameters; [`advance`] goes on with a run to a time;
-//! [`compare`] pairs the model's probes with the measurements.
+//! [`compare`] pairs the model's probes with the measurements; [`doubts`] says what the
+//! readings give reason to doubt in how the probes were set up.
 
 pub mod compare;
+pub mod doubts;
 pub mod schedule;
 mod setup;
 
