@@ -187,23 +187,26 @@ fn apply_codes(line: &Line, modal: &mut Modal) -> Result<Codes> {
             // move otherwise: the path after them would be laid somewhere else, or at another
             // pace (G93 is what `waamtwin export --format gcode` writes, with its A and C).
             100 | 280 | 300 | 530 | 920 | 930 | 950 => {
-                let what = match g {
-                    100 => "a frame's offsets set",
-                    280 | 300 => "a return to a home position",
-                    530 => "a move in the machine's frame",
-                    930 => "inverse-time feed",
-                    950 => "feed per spindle turn",
-                    _ => "the current point redefined",
+                let (what, expected) = match g {
+                    100 => ("a frame's offsets set", FRAME),
+                    280 | 300 => ("a return to a home position", FRAME),
+                    530 => ("a move in the machine's frame", FRAME),
+                    930 => ("inverse-time feed", FEED),
+                    950 => ("feed per spindle turn", FEED),
+                    _ => ("the current point redefined", FRAME),
                 };
-                return Err(line.fail(format!(
-                    "G{v} ({what}); expected moves in the program's own frame (G0-G3, G90/G91)"
-                )));
+                return Err(line.fail(format!("G{v} ({what}); expected {expected}")));
             }
             _ => {}
         }
     }
     Ok(codes)
 }
+
+/// What a refused code's line expected instead: moves in the program's own frame, or a feed
+/// in units a minute (G94, the default) that times them.
+const FRAME: &str = "moves in the program's own frame (G0-G3, G90/G91)";
+const FEED: &str = "feed in units a minute (G94, the default) or the dialect's per second";
 
 /// A G4 line's pause, s: P in ms or S in s.
 fn pause_s(line: &Line) -> Result<f64> {
@@ -710,7 +713,10 @@ mod tests {
             ("G1 F600\nG2 X10 Y0 I5 R5\n", "both its centre"),
             ("G1 F600\nG2 X0 Y0 I5 P3\n", "P3 turns"),
             ("G1 X- F1\n", "line 1: X-; expected a finite number"),
-            ("G93 G1 X1 F60\n", "line 1: G93 (inverse-time feed)"),
+            (
+                "G93 G1 X1 F60\n",
+                "line 1: G93 (inverse-time feed); expected feed in units a minute (G94",
+            ),
             (
                 "G1 X1 F60\nG1 X2 A0 C0\nG1 X3 A15 C90\n",
                 "line 3: A15 (a rotary axis turned)",
