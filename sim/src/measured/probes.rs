@@ -1,6 +1,7 @@
 //! Probe time series: one time column and one column per probe (thermocouples, IR spots), as
 //! acquisition software writes them. A value of 0 or an empty field is no reading (the GAMMA IR
-//! columns read 0 until metal is there). A header line, if any, is skipped.
+//! columns read 0 until metal is there). A preamble (a header, a logger's lines before it) is
+//! skipped.
 
 use super::at_line;
 use crate::error::Result;
@@ -119,14 +120,42 @@ fn read(
     Ok(Line::Row(t, values))
 }
 
-/// Read columns `columns` (0-based) against column `time_column`; `file` names it in messages.
+/// The most lines a file may hold before its first row (a logger's preamble and header).
+const MOST_PREAMBLE_LINES: usize = 100;
+
+/// Whether a line's `time_column` reads as a time: a row, not a preamble's line.
+fn time_reads(text: &str, time_column: usize) -> bool {
+    super::cells(text)
+        .get(time_column)
+        .is_some_and(|t| t.parse::<f64>().is_ok_and(f64::is_finite))
+}
+
+/// Read columns `columns` (0-based) against column `time_column`, after any preamble (lines,
+/// at most 100, before the first whose time reads); `file` names it in messages.
 pub fn series(text: &str, file: &str, time_column: usize, columns: &[usize]) -> Result<Series> {
     let mut s = Series {
         t_s: Vec::new(),
         values: vec![Vec::new(); columns.len()],
     };
+    let mut preamble = 0;
     for (k, text) in text.lines().enumerate() {
         let n = k + 1;
+        // A logger's preamble (its name, the start, a header, a line of units) runs until the
+        // first line whose time reads; a line after that which does not read is named.
+        if s.t_s.is_empty() && !time_reads(text, time_column) {
+            preamble += 1;
+            if preamble > MOST_PREAMBLE_LINES {
+                return Err(at_line(
+                    file,
+                    n,
+                    format!(
+                        "no time in column {time_column} in the first {MOST_PREAMBLE_LINES} \
+                         lines; expected a time series, its times in column {time_column}"
+                    ),
+                ));
+            }
+            continue;
+        }
         let (t, values) = match line(text, n, time_column, columns) {
             Ok(Line::Nothing) => continue,
             Ok(Line::Row(t, v)) => (t, v),
@@ -148,7 +177,7 @@ pub fn series(text: &str, file: &str, time_column: usize, columns: &[usize]) -> 
     }
     if s.t_s.is_empty() {
         return Err(crate::error::Error::input(format!(
-            "{file}: no rows; expected a time series"
+            "{file}: no rows with a time in column {time_column}; expected a time series"
         )));
     }
     Ok(s)
@@ -164,6 +193,32 @@ mod tests {
         assert_eq!(s.t_s, vec![0.0, 0.5]);
         assert_eq!(s.values[0], vec![Some(25.1), None]);
         assert_eq!(s.values[1], vec![None, Some(300.5)]);
+    }
+
+    /// A logger's preamble (its name, the start, the header, a line of units) is passed over;
+    /// a line after the first row that does not read is named; a file with no time in its
+    /// column says so.
+    #[test]
+    fn a_preamble_is_passed_over() {
+        let text = "Logger TC-08\nStart: 2026-11-30, 12:00\nt,tc1,tc2\ns,C,C\n0,20,21\n1,25,\n";
+        let s = series(text, "tc.csv", 0, &[1, 2]).unwrap();
+        assert_eq!(s.t_s, vec![0.0, 1.0]);
+        assert_eq!(s.values[1], vec![Some(21.0), None]);
+        let e = series("t,a\n0,1\ns,C\n", "tc.csv", 0, &[1]).unwrap_err();
+        assert!(e.message.contains("tc.csv line 3"), "{}", e.message);
+        let e = series("a,b\nx,1\n", "tc.csv", 0, &[1]).unwrap_err();
+        assert!(
+            e.message.contains("no rows with a time in column 0"),
+            "{}",
+            e.message
+        );
+        let long = "x,1\n".repeat(101);
+        let e = series(&long, "tc.csv", 0, &[1]).unwrap_err();
+        assert!(
+            e.message.contains("tc.csv line 101: no time in column 0"),
+            "{}",
+            e.message
+        );
     }
 
     #[test]
