@@ -31,6 +31,7 @@ pub fn event_series(text: &str, file: &str) -> Result<Vec<Waypoint>> {
         }
         // A header: the first line whose first field is not a number.
         if out.is_empty() && k == 0 && f[0].parse::<f64>().is_err() {
+            header(&f).map_err(|e| at_line(file, n, e))?;
             continue;
         }
         if f.len() < 5 {
@@ -91,6 +92,66 @@ pub fn event_series(text: &str, file: &str) -> Result<Vec<Waypoint>> {
     Ok(out)
 }
 
+/// The event series' columns in their order, and the units their values are read in.
+const COLUMNS: [(&str, Option<&str>); 5] = [
+    ("t_s", Some("s")),
+    ("x_mm", Some("mm")),
+    ("y_mm", Some("mm")),
+    ("z_mm", Some("mm")),
+    ("on", None),
+];
+
+/// A header cell read as a column's name and unit: `x_mm`, `X (mm)`, `t [s]`, `time_s` are
+/// (1, "mm"), (1, "mm"), (0, "s"), (0, "s"); None where it names none of the columns (GAMMA's
+/// `laser_on_in_segment_ending_here`).
+fn named(cell: &str) -> Option<(usize, String)> {
+    let cell = cell.to_ascii_lowercase();
+    let (name, unit) = cell
+        .split_once(|c: char| matches!(c, '_' | ' ' | '(' | '['))
+        .unwrap_or((&cell, ""));
+    let column = match name {
+        "t" | "time" => 0,
+        "x" => 1,
+        "y" => 2,
+        "z" => 3,
+        "on" => 4,
+        _ => return None,
+    };
+    let unit = unit.trim_matches(|c: char| matches!(c, '_' | ' ' | '(' | ')' | '[' | ']'));
+    Some((column, unit.to_string()))
+}
+
+/// A header that names the columns is held to them: each in its place and in its unit, so
+/// that a file in another order (`t_s, on, x_mm, …`) or unit (`x_m`, `t_ms`) is refused rather
+/// than read by position.
+fn header(cells: &[&str]) -> std::result::Result<(), String> {
+    for (k, cell) in cells.iter().enumerate().take(COLUMNS.len()) {
+        let Some((column, unit)) = named(cell) else {
+            continue;
+        };
+        let (name, want) = COLUMNS[column];
+        if column != k {
+            return Err(format!(
+                "the header's column {k} is {cell:?}; expected {:?} there: the event series' \
+                 columns are t_s, x_mm, y_mm, z_mm, on, in that order",
+                COLUMNS[k].0
+            ));
+        }
+        // Only a unit known to be another is refused: `z_top_mm` is z, in mm.
+        let other = match want {
+            Some("s") => ["ms", "us", "µs", "min", "h"].contains(&unit.as_str()),
+            Some(_) => ["m", "cm", "dm", "um", "µm", "in", "inch", "ft"].contains(&unit.as_str()),
+            None => false,
+        };
+        if let (true, Some(want)) = (other, want) {
+            return Err(format!(
+                "the header's column {k} is {cell:?}, in {unit}; expected {name}, in {want}"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Re-read flags written for the segment starting at each waypoint (the event-series
 /// convention: a power holds from its time on) as this module's, for the segment ending there.
 pub fn flags_start_segments(path: &mut [Waypoint]) {
@@ -105,6 +166,50 @@ pub fn flags_start_segments(path: &mut [Waypoint]) {
 #[cfg(test)]
 mod tests {
     use super::{event_series, flags_start_segments};
+
+    /// A header that names the columns is read for their order and units: GAMMA's and the
+    /// usual forms pass; another order, positions in metres or inches, a time in ms are
+    /// refused naming the column.
+    #[test]
+    fn a_header_is_held_to_the_columns_it_names() {
+        let rows = "0,0,0,0,0\n1,10,0,0,1\n";
+        for ok in [
+            "t_s,x_mm,y_mm,z_mm,laser_on_in_segment_ending_here",
+            "time (s),X (mm),Y (mm),Z (mm),on",
+            "t [s], x, y, z, power_w",
+            "Zeit,a,b,c,d",
+            "t_s,x_mm,y_mm,z_top_mm,on",
+        ] {
+            let w = event_series(&format!("{ok}\n{rows}"), "e.csv");
+            assert_eq!(w.map(|w| w.len()).ok(), Some(2), "{ok}");
+        }
+        for (bad, says) in [
+            (
+                "t_s,on,x_mm,y_mm,z_mm",
+                "column 1 is \"on\"; expected \"x_mm\" there",
+            ),
+            (
+                "t_s,y_mm,x_mm,z_mm,on",
+                "column 1 is \"y_mm\"; expected \"x_mm\"",
+            ),
+            (
+                "t_s,x_m,y_m,z_m,on",
+                "column 1 is \"x_m\", in m; expected x_mm, in mm",
+            ),
+            (
+                "t_ms,x_mm,y_mm,z_mm,on",
+                "column 0 is \"t_ms\", in ms; expected t_s, in s",
+            ),
+            ("t,x (in),y (in),z (in),on", "in in; expected x_mm, in mm"),
+        ] {
+            let e = event_series(&format!("{bad}\n{rows}"), "e.csv").unwrap_err();
+            assert!(
+                e.message.contains("e.csv line 1") && e.message.contains(says),
+                "{}",
+                e.message
+            );
+        }
+    }
 
     #[test]
     fn a_flag_from_here_on_moves_to_the_segment_it_starts() {
