@@ -653,7 +653,8 @@ fn readings_on_another_clock_are_refused() {
 /// °C read as kelvin, every reading lies below ambient and is dropped (`probe_unit`, and each
 /// probe without a reading named by its column, `probe_empty`, not as a probe in the air); in
 /// kelvin read as °C, the cold part before the first arc reads 294 °C, near ambient's 293 K.
-/// Read in its own unit, neither is said.
+/// Read in its own unit, neither is said. A header that names the unit against [probes] unit
+/// is refused.
 #[test]
 fn a_probe_file_in_the_wrong_unit_is_said() {
     let dir = scratch("replay_probe_unit");
@@ -707,4 +708,23 @@ fn a_probe_file_in_the_wrong_unit_is_said() {
         let (err, kinds) = run(name, readings, unit);
         assert!(kinds.is_empty(), "{name}: {kinds:?} {err}");
     }
+    // A header that names the unit plainly is held to [probes] unit: refused, not doubted.
+    let named = "t_s,beside [°C]\n0,20\n5,100\n10,80\n";
+    std::fs::write(dir.join("named.csv"), named).unwrap();
+    let text = std::fs::read_to_string(dir.join("c_as_k.toml")).unwrap();
+    let scenario = dir.join("named.toml");
+    std::fs::write(&scenario, text.replace("c_as_k.csv", "named.csv")).unwrap();
+    let out = waamtwin(&[
+        "replay",
+        scenario.to_str().unwrap(),
+        "-o",
+        dir.join("named_out").to_str().unwrap(),
+    ]);
+    assert_input_error(
+        &out,
+        &[
+            "named.csv line 1: column 1 is \"beside [°C]\", in °C",
+            "unit (\"K\")",
+        ],
+    );
 }

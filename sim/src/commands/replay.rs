@@ -336,7 +336,21 @@ pub(crate) fn readings(s: &probes::Series) -> usize {
 pub(crate) fn measured(p: &Probes, ambient_k: f64) -> Result<(probes::Series, usize)> {
     let columns: Vec<usize> = p.points.iter().map(|q| q.column).collect();
     let file = p.file.display().to_string();
-    let mut s = probes::series(&read(&p.file)?, &file, p.time_column, &columns)?;
+    let text = read(&p.file)?;
+    if let Some((n, c, cell)) =
+        probes::unit_against_header(&text, p.time_column, &columns, p.kelvin)
+    {
+        let (said, named) = if p.kelvin {
+            ("K", "°C")
+        } else {
+            ("C", "kelvin")
+        };
+        return Err(Error::input(format!(
+            "{file} line {n}: column {c} is {cell:?}, in {named}; expected [probes] unit \
+             (\"{said}\") to say the file's unit"
+        )));
+    }
+    let mut s = probes::series(&text, &file, p.time_column, &columns)?;
     let dropped = in_celsius(&mut s, p.kelvin, ambient_k);
     Ok((s, dropped))
 }

@@ -120,6 +120,50 @@ fn read(
     Ok(Line::Row(t, values))
 }
 
+/// The unit a header cell names for its column's readings, where it names one plainly:
+/// kelvin as `(K)`, `[K]`, `/K` or `kelvin`; °C as `°C`, `(C)`, `[C]`, `degC`, `celsius` or a
+/// `_c` suffix (ORNL's `tc1_c`). A bare `K` after a name is not read: `TC1 type K` is a
+/// thermocouple's type. Some(true) for kelvin.
+fn unit_named(cell: &str) -> Option<bool> {
+    let c = cell.trim().to_lowercase();
+    let kelvin = ["(k)", "[k]", "/k"].iter().any(|u| c.ends_with(u)) || c.contains("kelvin");
+    let celsius = ["°c", "(c)", "[c]", "degc", "deg c", "_c"]
+        .iter()
+        .any(|u| c.ends_with(u))
+        || c.contains("celsius")
+        || c.contains("°c");
+    match (kelvin, celsius) {
+        (true, false) => Some(true),
+        (false, true) => Some(false),
+        _ => None,
+    }
+}
+
+/// Where the preamble of a probe file (the lines before its first row) names the unit of a
+/// probe's column other than `kelvin` says: (its line, the column, the cell). The header read
+/// for what it says of the readings beneath it.
+pub fn unit_against_header(
+    text: &str,
+    time_column: usize,
+    columns: &[usize],
+    kelvin: bool,
+) -> Option<(usize, usize, String)> {
+    for (k, line) in text.lines().enumerate().take(MOST_PREAMBLE_LINES) {
+        if time_reads(line, time_column) {
+            return None;
+        }
+        let cells = super::cells(line);
+        for &c in columns {
+            if let Some(cell) = cells.get(c)
+                && unit_named(cell).is_some_and(|k| k != kelvin)
+            {
+                return Some((k + 1, c, cell.to_string()));
+            }
+        }
+    }
+    None
+}
+
 /// The most lines a file may hold before its first row (a logger's preamble and header).
 const MOST_PREAMBLE_LINES: usize = 100;
 
@@ -219,6 +263,27 @@ mod tests {
             "{}",
             e.message
         );
+    }
+
+    /// A header that names its columns' unit plainly is read for it (ORNL's `tc1_c`, `T (K)`,
+    /// `tc [°C]`); a thermocouple's type (`TC1 type K`) and a name alone are not units.
+    #[test]
+    fn a_header_names_its_unit() {
+        use super::unit_against_header as against;
+        let ornl = "t_s,clock,tc1_c,tc2_c\n0,12:00,0,0\n";
+        assert_eq!(against(ornl, 0, &[2, 3], false), None);
+        assert_eq!(
+            against(ornl, 0, &[2, 3], true),
+            Some((1, 2, "tc1_c".into()))
+        );
+        let k = "time,T (K),tc [°C]\ns,K,C\n0,300,25\n";
+        assert_eq!(against(k, 0, &[1], true), None);
+        assert_eq!(against(k, 0, &[1], false), Some((1, 1, "T (K)".into())));
+        assert_eq!(against(k, 0, &[2], true), Some((1, 2, "tc [°C]".into())));
+        let plain = "t,TC1 type K,tc2\n0,20,20\n";
+        assert_eq!(against(plain, 0, &[1, 2], false), None);
+        assert_eq!(against(plain, 0, &[1, 2], true), None);
+        assert_eq!(against("0,20\n", 0, &[1], true), None, "no header");
     }
 
     #[test]
