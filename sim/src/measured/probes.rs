@@ -152,23 +152,30 @@ pub fn unit_against_header(
         if time_reads(line, time_column) {
             return None;
         }
-        let cells = super::cells(line);
-        for &c in columns {
-            if let Some(cell) = cells.get(c)
-                && unit_named(cell).is_some_and(|k| k != kelvin)
-            {
-                return Some((k + 1, c, cell.to_string()));
-            }
+        if let Some((c, cell)) = unit_in_line(line, columns, kelvin) {
+            return Some((k + 1, c, cell));
         }
     }
     None
 }
 
+/// Where one preamble line names the unit of one of `columns` other than `kelvin` says: the
+/// column and the cell.
+pub fn unit_in_line(line: &str, columns: &[usize], kelvin: bool) -> Option<(usize, String)> {
+    let cells = super::cells(line);
+    columns.iter().find_map(|&c| {
+        let cell = cells.get(c)?;
+        unit_named(cell)
+            .is_some_and(|k| k != kelvin)
+            .then(|| (c, cell.to_string()))
+    })
+}
+
 /// The most lines a file may hold before its first row (a logger's preamble and header).
-const MOST_PREAMBLE_LINES: usize = 100;
+pub const MOST_PREAMBLE_LINES: usize = 100;
 
 /// Whether a line's `time_column` reads as a time: a row, not a preamble's line.
-fn time_reads(text: &str, time_column: usize) -> bool {
+pub fn time_reads(text: &str, time_column: usize) -> bool {
     super::cells(text)
         .get(time_column)
         .is_some_and(|t| t.parse::<f64>().is_ok_and(f64::is_finite))

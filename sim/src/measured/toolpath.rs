@@ -106,9 +106,7 @@ const COLUMNS: [(&str, Option<&str>); 5] = [
 /// `laser_on_in_segment_ending_here`).
 fn named(cell: &str) -> Option<(usize, String)> {
     let cell = cell.to_ascii_lowercase();
-    let (name, unit) = cell
-        .split_once(|c: char| matches!(c, '_' | ' ' | '(' | '['))
-        .unwrap_or((&cell, ""));
+    let (name, unit) = cell.split_once(['_', ' ', '(', '[']).unwrap_or((&cell, ""));
     let column = match name {
         "t" | "time" => 0,
         "x" => 1,

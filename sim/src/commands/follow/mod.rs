@@ -73,6 +73,10 @@ struct Counters {
     /// (it had stalled): dropped.
     #[serde(default)]
     machine_late: usize,
+    /// Rows read from the probe file: until the first, a line whose time does not read is the
+    /// logger's preamble, passed over as `replay` passes it.
+    #[serde(default)]
+    rows_read: usize,
 }
 
 /// What the OPC UA subscription met (`opcua::Subscription`), for follow.json. Typed plain data,
@@ -415,7 +419,7 @@ pub fn run(
         match brought {
             Brought::Lines(lines) => {
                 for (mark, text) in lines {
-                    match parse(&mut counters, &p, &layout, (mark.lines, &text)) {
+                    match parse(&mut counters, &p, &layout, (mark.lines, &text))? {
                         Some(row) => merge.probe(mark, row),
                         // A line that is no row is read for good once nothing before it
                         // waits (a resumed run does not count a malformed one twice).
@@ -556,7 +560,27 @@ impl Layout {
 
 /// Line `n` of the probe file as a row; a line that does not read is named, counted and
 /// skipped (None).
-fn parse(c: &mut Counters, p: &Probes, l: &Layout, (n, text): (usize, &str)) -> Option<Row> {
+fn parse(
+    c: &mut Counters,
+    p: &Probes,
+    l: &Layout,
+    (n, text): (usize, &str),
+) -> Result<Option<Row>> {
+    if c.rows_read == 0
+        && n <= probes::MOST_PREAMBLE_LINES
+        && !probes::time_reads(text, p.time_column)
+    {
+        return match probes::unit_in_line(text, &l.probes, p.kelvin) {
+            Some((column, cell)) => Err(Error::input(format!(
+                "{} line {n}: column {column} is {cell:?}, in {}; expected [probes] unit (\"{}\") \
+                 to say the file's unit",
+                p.file.display(),
+                if p.kelvin { "°C" } else { "kelvin" },
+                if p.kelvin { "K" } else { "C" },
+            ))),
+            None => Ok(None),
+        };
+    }
     let read = probes::line(text, n, p.time_column, &l.probes).and_then(|row| {
         match (row, l.signals.is_empty()) {
             (Line::Row(t, mut values), false) => {
@@ -573,9 +597,12 @@ fn parse(c: &mut Counters, p: &Probes, l: &Layout, (n, text): (usize, &str)) -> 
             (row, _) => Ok(row),
         }
     });
-    match read {
+    Ok(match read {
         Ok(Line::Nothing) => None,
-        Ok(Line::Row(t, v)) => Some((t, v)),
+        Ok(Line::Row(t, v)) => {
+            c.rows_read += 1;
+            Some((t, v))
+        }
         Err(e) => {
             let line = format!("{} line {n}: {e}", p.file.display());
             eprintln!("follow: skipped {line}");
@@ -585,7 +612,7 @@ fn parse(c: &mut Counters, p: &Probes, l: &Layout, (n, text): (usize, &str)) -> 
             }
             None
         }
-    }
+    })
 }
 
 /// Feed what the merge let go: a probe row to the engine ([`feed`]), or a row of the machine
