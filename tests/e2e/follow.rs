@@ -423,6 +423,36 @@ fn a_header_against_the_unit_is_refused() {
     assert!(!text.contains("panicked"), "{text}");
 }
 
+/// Readings in °C followed as kelvin, under a header that does not say the unit: once 100 have
+/// come, most of them below ambient, the unit is doubted once, on stderr and in follow.json's
+/// `warnings` (`probe_unit`), as `replay` doubts it; the run goes on.
+#[test]
+fn readings_below_ambient_doubt_the_unit_while_followed() {
+    let dir = scratch("follow_unit_doubt");
+    let (scenario, mut lines) = small_wall(&dir, "");
+    let text = std::fs::read_to_string(&scenario).unwrap();
+    std::fs::write(&scenario, text.replace("unit = \"C\"", "unit = \"K\"")).unwrap();
+    lines[0] = "t_s,a,b,c".into();
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    let out = dir.join("out");
+    let (ok, text) = finish(
+        follow(&scenario, &out, &["--until-idle-s", "2"]),
+        Duration::from_secs(300),
+    );
+    assert!(ok, "{text}");
+    assert_eq!(
+        text.matches("readings lay more than 5 K below ambient")
+            .count(),
+        1,
+        "{text}"
+    );
+    assert!(text.contains("check [probes] unit (\"K\")"), "{text}");
+    let v = json(&out.join("follow.json"));
+    assert_eq!(v["warnings"][0]["kind"], "probe_unit", "{}", v["warnings"]);
+    // Every reading of the 277 rows followed (to the program's end and the longest horizon).
+    assert_eq!(v["refused"]["below_ambient"], 3 * 277, "{}", v["refused"]);
+}
+
 /// The logger stops for 30 s mid-build: follow says the source stalled, keeps its state, and
 /// follows on when the readings return.
 #[test]

@@ -21,7 +21,7 @@ use crate::measured::probes::{self, Line};
 use crate::output::RunDir;
 use crate::pipeline::calibrate::Range;
 use crate::pipeline::checkpoint::Checkpoints;
-use crate::pipeline::replay::{BELOW_AMBIENT_K, Parameter, Replay};
+use crate::pipeline::replay::{BELOW_AMBIENT_K, Parameter, Replay, doubts};
 use crate::pipeline::twin::asrun::MachineRow;
 use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, KeptOwned, Unit};
 use crate::pipeline::twin::{Twin, Uncertain};
@@ -77,7 +77,17 @@ struct Counters {
     /// logger's preamble, passed over as `replay` passes it.
     #[serde(default)]
     rows_read: usize,
+    /// Readings met (before those below ambient were dropped), and what they gave reason to
+    /// doubt, said once (`probe_unit`).
+    #[serde(default)]
+    readings_met: usize,
+    #[serde(default)]
+    warnings: Vec<(String, String)>,
 }
+
+/// Readings met before `follow` judges the share of them below ambient: a logger's first
+/// rows may all be a cold start's.
+const READINGS_BEFORE_DOUBT: usize = 100;
 
 /// What the OPC UA subscription met (`opcua::Subscription`), for follow.json. Typed plain data,
 /// here rather than in the feature's module, so that `Counters` read back from a checkpoint in
@@ -210,10 +220,13 @@ fn prior_of_calibration(file: &Path) -> Result<Vec<Uncertain>> {
 }
 
 /// A row's readings in °C, those below ambient dropped (counted), as replay reads them.
+/// Once [`READINGS_BEFORE_DOUBT`] readings have come, most of them below ambient doubt the
+/// unit: said once, on stderr and in follow.json's `warnings`, as `replay` says it.
 fn in_celsius(values: &mut [Option<f64>], kelvin: bool, ambient_k: f64, c: &mut Counters) {
     let floor_c = ambient_k - C - BELOW_AMBIENT_K;
     for v in values.iter_mut() {
         if let Some(x) = v {
+            c.readings_met += 1;
             if kelvin {
                 *x -= C;
             }
@@ -222,6 +235,14 @@ fn in_celsius(values: &mut [Option<f64>], kelvin: bool, ambient_k: f64, c: &mut 
                 c.below_ambient += 1;
             }
         }
+    }
+    let doubted = c.warnings.iter().any(|w| w.0 == "probe_unit");
+    if !doubted
+        && c.readings_met >= READINGS_BEFORE_DOUBT
+        && let Some(w) = doubts::below_ambient(c.below_ambient, c.readings_met, kelvin, ambient_k)
+    {
+        eprintln!("follow: {}", w.line);
+        c.warnings.push((w.kind.to_string(), w.line));
     }
 }
 
@@ -1161,6 +1182,8 @@ fn report(
             "read_again": c.reread,
             "machine_late": c.machine_late,
         },
+        "warnings": c.warnings.iter().map(|w| json!({"kind": w.0, "message": w.1}))
+            .collect::<Vec<_>>(),
         "restarts": c.restarts,
         "opcua": c.opcua,
         "machine_log": p.asrun.as_ref().map(|a| json!({

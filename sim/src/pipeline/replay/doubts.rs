@@ -68,6 +68,31 @@ pub fn probes(met: &[Met<'_>]) -> Vec<Warning> {
     out
 }
 
+/// Whether `dropped` of `readings` (read in kelvin where `kelvin`) lying below `ambient_k`
+/// doubt the unit (`probe_unit`): more than half of them, as a file in °C read as kelvin
+/// drops all (25 °C becomes −248 °C). `follow` asks it of the readings so far.
+pub fn below_ambient(
+    dropped: usize,
+    readings: usize,
+    kelvin: bool,
+    ambient_k: f64,
+) -> Option<Warning> {
+    (dropped * 2 > readings).then(|| Warning {
+        kind: "probe_unit",
+        line: format!(
+            "warning: {dropped} of {readings} readings lay more than {BELOW_AMBIENT_K} K below \
+             ambient ({:.1} °C) and were dropped{}; check [probes] unit (\"{}\") against the file",
+            ambient_k - C,
+            if kelvin {
+                ", as a file in °C read as kelvin does"
+            } else {
+                ""
+            },
+            if kelvin { "K" } else { "C" },
+        ),
+    })
+}
+
 /// Within this of ambient in kelvin, a cold part's reading taken as °C is a file in kelvin, K.
 const KELVIN_LOOKALIKE_K: f64 = 15.0;
 
@@ -84,27 +109,13 @@ pub fn unit(
     first_arc_s: f64,
 ) -> Option<Warning> {
     let kept = m.values.iter().flatten().flatten().count();
-    let unit = if kelvin { "K" } else { "C" };
-    let ambient_c = ambient_k - C;
-    if dropped * 2 > dropped + kept {
-        return Some(Warning {
-            kind: "probe_unit",
-            line: format!(
-                "warning: {dropped} of {} readings lay more than {BELOW_AMBIENT_K} K below \
-                 ambient ({ambient_c:.1} °C) and were dropped{}; check [probes] unit (\"{unit}\") \
-                 against the file",
-                dropped + kept,
-                if kelvin {
-                    ", as a file in °C read as kelvin does"
-                } else {
-                    ""
-                },
-            ),
-        });
+    if let Some(w) = below_ambient(dropped, dropped + kept, kelvin, ambient_k) {
+        return Some(w);
     }
     if kelvin {
         return None;
     }
+    let ambient_c = ambient_k - C;
     let mut cold: Vec<f64> = m
         .t_s
         .iter()
