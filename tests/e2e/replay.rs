@@ -602,6 +602,7 @@ fn a_probe_that_reads_nothing_is_named() {
 /// Readings on another clock (a logger's Unix time: 1.77e9 s, where the path runs 0–4 s) are
 /// refused by replay and calibrate, naming the file, both ranges and the fix, where the replay
 /// set out to cool the part for 1.77e9 s (its estimate: 22 days) before comparing a reading.
+/// An hour off is replayed, and the readings' missing the build said (`probe_clock`).
 #[test]
 fn readings_on_another_clock_are_refused() {
     let dir = scratch("replay_other_clock");
@@ -647,6 +648,24 @@ fn readings_on_another_clock_are_refused() {
         );
         assert!(!dir.join(command).exists(), "{command}: nothing written");
     }
+    // A logger an hour ahead of the program (within the bound): replayed, and said, the probe
+    // left unread for its clock rather than named for its place.
+    std::fs::write(dir.join("unix.csv"), "t_s,a\n3600,20\n3605,100\n3610,80\n").unwrap();
+    let out = dir.join("hour");
+    let err = succeed("replay", &scenario, &out);
+    assert!(
+        err.contains("the readings begin at 3600 s, after the last deposit at 4.0 s"),
+        "{err}"
+    );
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+    let kinds: Vec<&str> = r["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds, ["probe_clock"], "{r}");
 }
 
 /// A probe file read in the wrong unit is said, in replay.json's warnings and on stderr: in

@@ -62,14 +62,18 @@ pub(crate) fn names(p: &Probes) -> Vec<String> {
 }
 
 /// What the readings `m` of `p` (`dropped` of them below ambient), compared as `compared` on
-/// the replay `r`, give reason to doubt: probes with no reading or none compared, and the
-/// file's unit ([`doubts`]).
+/// the replay `r`, give reason to doubt: their clock, the file's unit, and probes with no
+/// reading or none compared ([`doubts`]).
 pub(crate) fn doubts(
     p: &Probes,
     (m, dropped): (&probes::Series, usize),
     compared: &[Compared],
     r: &Replay,
 ) -> Vec<Warning> {
+    let first_arc_s = r.deps.first().map_or(0.0, |d| d.arc_start());
+    let last_s = r.deps.last().map_or(0.0, |d| d.time);
+    let ambient_k = r.values.thermal.ambient_k;
+    let clock = doubts::clock(&m.t_s, first_arc_s, last_s);
     let met: Vec<doubts::Met<'_>> = p
         .points
         .iter()
@@ -79,15 +83,16 @@ pub(crate) fn doubts(
             position_mm: q.position_m.map(|x| x * 1e3),
             column: q.column,
             read: v.iter().any(Option::is_some),
-            compared: compared
-                .iter()
-                .any(|c| c.name == q.name && c.agreement.is_some()),
+            // Readings that miss the build leave a probe unread for that, not for its place.
+            compared: clock.is_some()
+                || compared
+                    .iter()
+                    .any(|c| c.name == q.name && c.agreement.is_some()),
         })
         .collect();
-    let first_arc_s = r.deps.first().map_or(0.0, |d| d.arc_start());
-    let ambient_k = r.values.thermal.ambient_k;
-    doubts::unit(m, dropped, p.kelvin, ambient_k, first_arc_s)
+    clock
         .into_iter()
+        .chain(doubts::unit(m, dropped, p.kelvin, ambient_k, first_arc_s))
         .chain(doubts::probes(&met))
         .collect()
 }

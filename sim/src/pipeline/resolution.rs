@@ -21,7 +21,7 @@ use thermal::schedule::{Deposit, arc_lengths, bead_volume, segment_start};
 pub struct Warning {
     /// The function that found it: `coarse_deposits`, `coarse_voxels`, `floating_path`,
     /// `metal_off`, or of a replay's readings ([`crate::pipeline::replay::doubts`])
-    /// `probe_empty`, `probe_unread` or `probe_unit`.
+    /// `probe_clock`, `probe_empty`, `probe_unread` or `probe_unit`.
     pub kind: &'static str,
     pub line: String,
 }

@@ -1,5 +1,7 @@
 //! What a replay's readings give reason to doubt in how its probes were set up: a probe whose
-//! column held no reading, one that compared nothing (in the air), and a unit that reads wrong
+//! column held no reading, one that compared nothing (in the air), readings on another clock
+//! than the path's (all before its first arc or all after its last deposit), and a unit that
+//! reads wrong
 //! (a file in °C read as kelvin lies below ambient and is dropped; one in kelvin read as °C
 //! starts the cold part near 293 °C). Said, not refused: each can be right (a window that
 //! closes before the metal comes, a plate preheated to about 300 °C), and each would otherwise
@@ -89,6 +91,29 @@ pub fn below_ambient(
                 ""
             },
             if kelvin { "K" } else { "C" },
+        ),
+    })
+}
+
+/// Whether the readings' times `t_s` miss the build, the first arc at `first_arc_s` to the
+/// last deposit at `last_s` (`probe_clock`): all of them before it or all after it, where the
+/// file and the path are on two clocks (a logger started an hour before the program, its
+/// times not moved by `toolpath.time_offset_s`). A log of the cooling alone is all after, and
+/// said too.
+pub fn clock(t_s: &[f64], first_arc_s: f64, last_s: f64) -> Option<Warning> {
+    let (&first, &last) = (t_s.first()?, t_s.last()?);
+    let missed = if last < first_arc_s {
+        format!("end at {last} s, before the first arc at {first_arc_s:.1} s")
+    } else if first > last_s {
+        format!("begin at {first} s, after the last deposit at {last_s:.1} s")
+    } else {
+        return None;
+    };
+    Some(Warning {
+        kind: "probe_clock",
+        line: format!(
+            "warning: the readings {missed}: none was taken while metal was laid; check \
+             [toolpath] time_offset_s, which puts the path on the readings' clock"
         ),
     })
 }
@@ -192,6 +217,30 @@ mod tests {
         );
         let celsius = series(vec![0.0, 5.0], vec![vec![Some(25.0), Some(1200.0)]]);
         assert_eq!(unit(&celsius, 0, false, 293.15, 2.0), None);
+    }
+
+    /// Readings all before the first arc or all after the last deposit miss the build; any
+    /// overlap does not.
+    #[test]
+    fn readings_that_miss_the_build_doubt_the_clock() {
+        let w = clock(&[0.0, 5.0], 10.0, 50.0).unwrap();
+        assert_eq!(w.kind, "probe_clock");
+        assert!(
+            w.line
+                .contains("end at 5 s, before the first arc at 10.0 s"),
+            "{}",
+            w.line
+        );
+        let w = clock(&[3600.0, 3700.0], 10.0, 50.0).unwrap();
+        assert!(
+            w.line
+                .contains("begin at 3600 s, after the last deposit at 50.0 s"),
+            "{}",
+            w.line
+        );
+        assert_eq!(clock(&[0.0, 20.0], 10.0, 50.0), None);
+        assert_eq!(clock(&[40.0, 3600.0], 10.0, 50.0), None);
+        assert_eq!(clock(&[], 10.0, 50.0), None);
     }
 
     /// A probe with no reading in its column is named with its column, one that compared none
