@@ -453,6 +453,37 @@ fn readings_below_ambient_doubt_the_unit_while_followed() {
     assert_eq!(v["refused"]["below_ambient"], 3 * 277, "{}", v["refused"]);
 }
 
+/// A logger on Unix time (1.77e9 s, the program 0–108 s) is refused at its first row, before
+/// it is fed, as `replay` refuses the file: the twin set out to cool the part for 56 years
+/// before the reading, and `follow` ran on past any bound.
+#[test]
+fn a_reading_on_another_clock_is_refused() {
+    let dir = scratch("follow_other_clock");
+    let (scenario, lines) = small_wall(&dir, "");
+    let unix: Vec<String> = lines
+        .iter()
+        .enumerate()
+        .map(|(k, l)| match (k, l.split_once(',')) {
+            (0, _) | (_, None) => l.clone(),
+            (_, Some((t, rest))) => {
+                format!("{},{rest}", 1_767_225_600.0 + t.parse::<f64>().unwrap())
+            }
+        })
+        .collect();
+    std::fs::write(dir.join("log.csv"), unix.join("\n") + "\n").unwrap();
+    let out = dir.join("out");
+    let (ok, text) = finish(
+        follow(&scenario, &out, &["--until-idle-s", "2"]),
+        Duration::from_secs(60),
+    );
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("log.csv: a reading at 1767225600 s, 1.767e9 s after the program's last deposit at 108.0 s"),
+        "{text}"
+    );
+    assert!(!text.contains("panicked"), "{text}");
+}
+
 /// The logger stops for 30 s mid-build: follow says the source stalled, keeps its state, and
 /// follows on when the readings return.
 #[test]

@@ -100,7 +100,7 @@ pub(crate) fn doubts(
 /// The longest the model cools past the build's last deposit to meet the last reading, s:
 /// 116 days, `toolpath.time_offset_s`'s bound. Readings further on are on another clock (Unix
 /// time, a logger's own), and their replay would cool the part for weeks.
-const MOST_COOLING_S: f64 = 1e7;
+pub(crate) const MOST_COOLING_S: f64 = 1e7;
 
 /// Refused where the readings `m` of `p` end more than [`MOST_COOLING_S`] after `r`'s last
 /// deposit: the file and the path are on two clocks.

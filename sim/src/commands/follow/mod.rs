@@ -15,7 +15,7 @@ pub mod opcua;
 pub mod tail;
 
 use super::checkpoint;
-use super::replay::{names, set_up};
+use super::replay::{MOST_COOLING_S, names, set_up};
 use crate::error::{Error, Result};
 use crate::measured::probes::{self, Line};
 use crate::output::RunDir;
@@ -771,6 +771,19 @@ fn feed(
     if !counters.restarts.is_empty() && follower.data_s().is_some_and(|d| t <= d) {
         counters.reread += 1;
         return Ok(());
+    }
+    // A reading on another clock (a logger's Unix time) would have the twin cool the part
+    // for years before it: refused before it is fed, as `replay` refuses the file.
+    let end_s = follower.twin.deps().last().map_or(0.0, |d| d.time);
+    if t - end_s > MOST_COOLING_S {
+        return Err(Error::input(format!(
+            "{}: a reading at {t} s, {:.3e} s after the program's last deposit at {end_s:.1} s; \
+             expected readings on the toolpath's clock, within {MOST_COOLING_S:.0e} s of its \
+             end (a time column of Unix or a logger's own time less the build's start; \
+             toolpath.time_offset_s moves the path by up to {MOST_COOLING_S:.0e} s)",
+            p.file.display(),
+            t - end_s
+        )));
     }
     let signals = values.split_off(p.points.len().min(values.len()));
     in_celsius(&mut values, p.kelvin, s.thermal.ambient_k, counters);
