@@ -127,7 +127,7 @@ fn read(
 fn unit_named(cell: &str) -> Option<bool> {
     let c = cell.trim().to_lowercase();
     let kelvin = ["(k)", "[k]", "/k"].iter().any(|u| c.ends_with(u)) || c.contains("kelvin");
-    let celsius = ["°c", "(c)", "[c]", "degc", "deg c", "_c"]
+    let celsius = ["(c)", "[c]", "degc", "deg c", "_c"]
         .iter()
         .any(|u| c.ends_with(u))
         || c.contains("celsius")

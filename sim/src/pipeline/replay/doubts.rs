@@ -1,9 +1,8 @@
 //! What a replay's readings give reason to doubt in how its probes were set up: a probe whose
 //! column held no reading, one that compared nothing (in the air), readings on another clock
 //! than the path's (all before its first arc or all after its last deposit), and a unit that
-//! reads wrong
-//! (a file in °C read as kelvin lies below ambient and is dropped; one in kelvin read as °C
-//! starts the cold part near 293 °C). Said, not refused: each can be right (a window that
+//! reads wrong (a file in °C read as kelvin lies below ambient and is dropped; one in kelvin
+//! read as °C starts the cold part near 293 °C). Said, not refused: each can be right (a window that
 //! closes before the metal comes, a plate preheated to about 300 °C), and each would otherwise
 //! leave an empty or shifted comparison and a run that looks whole.
 
@@ -173,8 +172,8 @@ mod tests {
         Series { t_s, values }
     }
 
-    /// A file in °C read as kelvin: all its readings dropped (the GAMMA substrate's 6 284)
-    /// is said, with the unit; a few dropped (the GAMMA wall's camera: 154 of 173 031, pixels
+    /// A file in °C read as kelvin: all its readings dropped (the GAMMA substrate's 6 288)
+    /// is said, with the unit; a few dropped (the GAMMA wall's camera: 154 of 174 579, pixels
     /// metal only partly fills) are not.
     #[test]
     fn most_readings_below_ambient_doubt_the_unit() {
