@@ -264,6 +264,27 @@ fn small_wall(dir: &Path, live: &str) -> (PathBuf, Vec<String>) {
     (dir.join("wall.toml"), lines)
 }
 
+/// `follow` of `scenario` over the probe file `lines` (written whole, as a logger that has
+/// finished), its readings taken in kelvin where `kelvin`; what it printed and whether it
+/// succeeded, within `limit`.
+fn follow_written(
+    scenario: &Path,
+    lines: &[String],
+    kelvin: bool,
+    limit: Duration,
+) -> (bool, String) {
+    let dir = scenario.parent().unwrap();
+    if kelvin {
+        let text = std::fs::read_to_string(scenario).unwrap();
+        std::fs::write(scenario, text.replace("unit = \"C\"", "unit = \"K\"")).unwrap();
+    }
+    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
+    finish(
+        follow(scenario, &dir.join("out"), &["--until-idle-s", "2"]),
+        limit,
+    )
+}
+
 /// A spiral laid in one pass (a helix R 15 mm, three revolutions at 8 mm/s, no travel and no
 /// pause) is followed revolution by revolution, as `dwell` judges it: a next-layer forecast and
 /// a judgement at the end of each revolution (the helix's last point starts a fourth), each
@@ -409,12 +430,7 @@ fn a_garbage_line_and_a_reading_back_in_time_are_named_and_skipped() {
 fn a_header_against_the_unit_is_refused() {
     let dir = scratch("follow_header_unit");
     let (scenario, lines) = small_wall(&dir, "");
-    let text = std::fs::read_to_string(&scenario).unwrap();
-    std::fs::write(&scenario, text.replace("unit = \"C\"", "unit = \"K\"")).unwrap();
-    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
-    let out = dir.join("out");
-    let child = follow(&scenario, &out, &["--until-idle-s", "2"]);
-    let (ok, text) = finish(child, Duration::from_secs(120));
+    let (ok, text) = follow_written(&scenario, &lines, true, Duration::from_secs(120));
     assert!(!ok, "{text}");
     assert!(
         text.contains("log.csv line 1: column 1 is \"a_c\", in °C; expected [probes] unit (\"K\")"),
@@ -430,15 +446,8 @@ fn a_header_against_the_unit_is_refused() {
 fn readings_below_ambient_doubt_the_unit_while_followed() {
     let dir = scratch("follow_unit_doubt");
     let (scenario, mut lines) = small_wall(&dir, "");
-    let text = std::fs::read_to_string(&scenario).unwrap();
-    std::fs::write(&scenario, text.replace("unit = \"C\"", "unit = \"K\"")).unwrap();
     lines[0] = "t_s,a,b,c".into();
-    std::fs::write(dir.join("log.csv"), lines.join("\n") + "\n").unwrap();
-    let out = dir.join("out");
-    let (ok, text) = finish(
-        follow(&scenario, &out, &["--until-idle-s", "2"]),
-        Duration::from_secs(300),
-    );
+    let (ok, text) = follow_written(&scenario, &lines, true, Duration::from_secs(300));
     assert!(ok, "{text}");
     assert_eq!(
         text.matches("readings lay more than 5 K below ambient")
@@ -447,7 +456,7 @@ fn readings_below_ambient_doubt_the_unit_while_followed() {
         "{text}"
     );
     assert!(text.contains("check [probes] unit (\"K\")"), "{text}");
-    let v = json(&out.join("follow.json"));
+    let v = json(&dir.join("out").join("follow.json"));
     assert_eq!(v["warnings"][0]["kind"], "probe_unit", "{}", v["warnings"]);
     // Every reading of the 277 rows followed (to the program's end and the longest horizon).
     assert_eq!(v["refused"]["below_ambient"], 3 * 277, "{}", v["refused"]);
@@ -470,12 +479,7 @@ fn a_reading_on_another_clock_is_refused() {
             }
         })
         .collect();
-    std::fs::write(dir.join("log.csv"), unix.join("\n") + "\n").unwrap();
-    let out = dir.join("out");
-    let (ok, text) = finish(
-        follow(&scenario, &out, &["--until-idle-s", "2"]),
-        Duration::from_secs(60),
-    );
+    let (ok, text) = follow_written(&scenario, &unix, false, Duration::from_secs(60));
     assert!(!ok, "{text}");
     assert!(
         text.contains("log.csv: a reading at 1767225600 s, 1.767e9 s after the program's last deposit at 108.0 s"),

@@ -539,6 +539,58 @@ fn a_ring_programmed_in_arcs_replays_as_the_ring_in_straight_moves() {
     assert!(compared > pa.len() * 3 / 4, "{compared} of {}", pa.len());
 }
 
+/// The probe "beside" a track (0, 5, 0 mm), and one 50 mm "aloft" of it.
+const BESIDE: &str = "{ name = \"beside\", column = 1, x_mm = 0.0, y_mm = 5.0, z_mm = 0.0 }";
+const ALOFT: &str = "{ name = \"aloft\", column = 2, x_mm = 0.0, y_mm = 5.0, z_mm = 50.0 }";
+
+/// A calibration of the efficiency, in four runs.
+const CALIBRATE: &str =
+    "[calibrate]\nparameters = [{ name = \"efficiency\", low = 0.5, high = 0.95 }]\nmax_runs = 4\n";
+
+/// A replay of one 40 mm track on a G3Si plate in `dir`, laid from `start_s` for 4 s, its
+/// probes `points` read from `readings` in `unit`, `extra` appended (a [calibrate] section);
+/// the scenario `NAME.toml` and its file `NAME.csv`.
+fn one_track(
+    dir: &Path,
+    name: &str,
+    start_s: f64,
+    (readings, unit, points): (&str, &str, &[&str]),
+    extra: &str,
+) -> PathBuf {
+    let path = format!(
+        "t_s,x_mm,y_mm,z_mm,on\n{start_s},-20,0,2,0\n{},20,0,2,1\n",
+        start_s + 4.0
+    );
+    std::fs::write(dir.join("path.csv"), path).unwrap();
+    std::fs::write(dir.join(format!("{name}.csv")), readings).unwrap();
+    let scenario = dir.join(format!("{name}.toml"));
+    std::fs::write(
+        &scenario,
+        format!(
+            "[toolpath]\nfile = \"path.csv\"\n[process]\npower_w = 1500.0\nefficiency = 0.8\n\
+             bead_width_mm = 4.0\nlayer_height_mm = 2.0\n[material]\npreset = \"G3Si\"\n\
+             [thermal]\nmodel = \"voxel\"\nplate_mm = [60.0, 20.0, 6.0]\n[probes]\n\
+             file = \"{name}.csv\"\nunit = \"{unit}\"\ntime_column = 0\npoints = [\n{},\n]\n\
+             {extra}",
+            points.join(",\n")
+        ),
+    )
+    .unwrap();
+    scenario
+}
+
+/// replay.json's warnings' kinds, in order.
+fn warning_kinds(out: &Path) -> Vec<String> {
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+    r["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["kind"].as_str().unwrap().to_string())
+        .collect()
+}
+
 /// A probe placed where no metal comes (50 mm above a track on the plate: a z in another
 /// frame) reads nothing; the replay and the calibration run, and say so on stderr and in their
 /// json's warnings with the probe's name and place, where they wrote an empty comparison
@@ -546,24 +598,8 @@ fn a_ring_programmed_in_arcs_replays_as_the_ring_in_straight_moves() {
 #[test]
 fn a_probe_that_reads_nothing_is_named() {
     let dir = scratch("replay_probe_unread");
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(
-        dir.join("path.csv"),
-        "t_s,x_mm,y_mm,z_mm,on\n0,-20,0,2,0\n4,20,0,2,1\n",
-    )
-    .unwrap();
-    std::fs::write(dir.join("p.csv"), "t_s,a,b\n0,20,20\n5,100,100\n10,80,80\n").unwrap();
-    let scenario = dir.join("s.toml");
-    std::fs::write(
-        &scenario,
-        "[toolpath]\nfile = \"path.csv\"\n[process]\npower_w = 1500.0\nefficiency = 0.8\n\
-         bead_width_mm = 4.0\nlayer_height_mm = 2.0\n[material]\npreset = \"G3Si\"\n[thermal]\n\
-         model = \"voxel\"\nplate_mm = [60.0, 20.0, 6.0]\n[probes]\nfile = \"p.csv\"\n\
-         unit = \"C\"\ntime_column = 0\npoints = [\n{ name = \"beside\", column = 1, x_mm = 0.0, \
-         y_mm = 5.0, z_mm = 0.0 },\n{ name = \"aloft\", column = 2, x_mm = 0.0, y_mm = 5.0, \
-         z_mm = 50.0 },\n]\n",
-    )
-    .unwrap();
+    let readings = "t_s,a,b\n0,20,20\n5,100,100\n10,80,80\n";
+    let scenario = one_track(&dir, "p", 0.0, (readings, "C", &[BESIDE, ALOFT]), CALIBRATE);
     let out = dir.join("out");
     let err = succeed("replay", &scenario, &out);
     for needle in [
@@ -585,9 +621,6 @@ fn a_probe_that_reads_nothing_is_named() {
     // Calibrated, the same: said on stderr and in calibration.json. Its fit window, the first
     // half, ends at the reading at 5 s, which its runs, stopped there, now read (before, the
     // fit found no sample and refused).
-    let mut text = std::fs::read_to_string(&scenario).unwrap();
-    text.push_str("[calibrate]\nparameters = [{ name = \"efficiency\", low = 0.5, high = 0.95 }]\nmax_runs = 4\n");
-    std::fs::write(&scenario, text).unwrap();
     let out = dir.join("calibrated");
     let err = succeed("calibrate", &scenario, &out);
     assert!(err.contains("aloft at (0.0, 5.0, 50.0) mm"), "{err}");
@@ -606,27 +639,8 @@ fn a_probe_that_reads_nothing_is_named() {
 #[test]
 fn readings_on_another_clock_are_refused() {
     let dir = scratch("replay_other_clock");
-    std::fs::write(
-        dir.join("path.csv"),
-        "t_s,x_mm,y_mm,z_mm,on\n0,-20,0,2,0\n4,20,0,2,1\n",
-    )
-    .unwrap();
-    std::fs::write(
-        dir.join("unix.csv"),
-        "t_s,a\n1767225600,20\n1767225605,100\n1767225610,80\n",
-    )
-    .unwrap();
-    let scenario = dir.join("s.toml");
-    std::fs::write(
-        &scenario,
-        "[toolpath]\nfile = \"path.csv\"\n[process]\npower_w = 1500.0\nefficiency = 0.8\n\
-         bead_width_mm = 4.0\nlayer_height_mm = 2.0\n[material]\npreset = \"G3Si\"\n[thermal]\n\
-         model = \"voxel\"\nplate_mm = [60.0, 20.0, 6.0]\n[probes]\nfile = \"unix.csv\"\n\
-         unit = \"C\"\ntime_column = 0\npoints = [\n{ name = \"beside\", column = 1, x_mm = 0.0, \
-         y_mm = 5.0, z_mm = 0.0 },\n]\n[calibrate]\nparameters = [{ name = \"efficiency\", \
-         low = 0.5, high = 0.95 }]\n",
-    )
-    .unwrap();
+    let readings = "t_s,a\n1767225600,20\n1767225605,100\n1767225610,80\n";
+    let scenario = one_track(&dir, "unix", 0.0, (readings, "C", &[BESIDE]), CALIBRATE);
     for command in ["replay", "calibrate"] {
         let out = waamtwin_within(
             &[
@@ -657,15 +671,7 @@ fn readings_on_another_clock_are_refused() {
         err.contains("the readings begin at 3600 s, after the last deposit at 4.0 s"),
         "{err}"
     );
-    let r: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
-    let kinds: Vec<&str> = r["warnings"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|w| w["kind"].as_str().unwrap())
-        .collect();
-    assert_eq!(kinds, ["probe_clock"], "{r}");
+    assert_eq!(warning_kinds(&out), ["probe_clock"], "{err}");
 }
 
 /// A probe file read in the wrong unit is said, in replay.json's warnings and on stderr: in
@@ -677,38 +683,13 @@ fn readings_on_another_clock_are_refused() {
 #[test]
 fn a_probe_file_in_the_wrong_unit_is_said() {
     let dir = scratch("replay_probe_unit");
-    std::fs::write(
-        dir.join("path.csv"),
-        "t_s,x_mm,y_mm,z_mm,on\n2,-20,0,2,0\n6,20,0,2,1\n",
-    )
-    .unwrap();
     let celsius = "t_s,a\n0,20\n5,100\n10,80\n";
     let kelvin = "t_s,a\n0,294\n5,600\n10,500\n";
     let run = |name: &str, readings: &str, unit: &str| {
-        std::fs::write(dir.join(format!("{name}.csv")), readings).unwrap();
-        let scenario = dir.join(format!("{name}.toml"));
-        std::fs::write(
-            &scenario,
-            format!(
-                "[toolpath]\nfile = \"path.csv\"\n[process]\npower_w = 1500.0\nefficiency = 0.8\n\
-                 bead_width_mm = 4.0\nlayer_height_mm = 2.0\n[material]\npreset = \"G3Si\"\n\
-                 [thermal]\nmodel = \"voxel\"\nplate_mm = [60.0, 20.0, 6.0]\n[probes]\n\
-                 file = \"{name}.csv\"\nunit = \"{unit}\"\ntime_column = 0\npoints = [\n\
-                 {{ name = \"beside\", column = 1, x_mm = 0.0, y_mm = 5.0, z_mm = 0.0 }},\n]\n"
-            ),
-        )
-        .unwrap();
+        let scenario = one_track(&dir, name, 2.0, (readings, unit, &[BESIDE]), "");
         let out = dir.join(format!("{name}_out"));
         let err = succeed("replay", &scenario, &out);
-        let r: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
-        let kinds: Vec<String> = r["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|w| w["kind"].as_str().unwrap().to_string())
-            .collect();
-        (err, kinds)
+        (err, warning_kinds(&out))
     };
     let (err, kinds) = run("c_as_k", celsius, "K");
     assert_eq!(kinds, ["probe_unit", "probe_empty"], "{err}");
@@ -729,10 +710,7 @@ fn a_probe_file_in_the_wrong_unit_is_said() {
     }
     // A header that names the unit plainly is held to [probes] unit: refused, not doubted.
     let named = "t_s,beside [°C]\n0,20\n5,100\n10,80\n";
-    std::fs::write(dir.join("named.csv"), named).unwrap();
-    let text = std::fs::read_to_string(dir.join("c_as_k.toml")).unwrap();
-    let scenario = dir.join("named.toml");
-    std::fs::write(&scenario, text.replace("c_as_k.csv", "named.csv")).unwrap();
+    let scenario = one_track(&dir, "named", 2.0, (named, "K", &[BESIDE]), "");
     let out = waamtwin(&[
         "replay",
         scenario.to_str().unwrap(),
