@@ -415,6 +415,7 @@ fn a_garbage_line_and_a_reading_back_in_time_are_named_and_skipped() {
     assert!(text.contains("line 101: column 2 = \"x\""), "{text}");
     let v = json(&out.join("follow.json"));
     assert_eq!(v["refused"]["malformed"], 1, "{}", v["refused"]);
+    assert_eq!(v["warnings"], serde_json::json!([]), "{}", v["warnings"]);
     assert_eq!(v["refused"]["back_in_time"], 1, "{}", v["refused"]);
     // Up to the program's end (108 s) and the longest horizon (30 s): 0–138 s.
     assert_eq!(v["rows"], 277);
@@ -441,7 +442,8 @@ fn a_header_against_the_unit_is_refused() {
 
 /// Readings in °C followed as kelvin, under a header that does not say the unit: once 100 have
 /// come, most of them below ambient, the unit is doubted once, on stderr and in follow.json's
-/// `warnings` (`probe_unit`), as `replay` doubts it; the run goes on.
+/// `warnings` (`probe_unit`), as `replay` doubts it; the run goes on, and at its end each
+/// probe that never read is named by its column (`probe_empty`).
 #[test]
 fn readings_below_ambient_doubt_the_unit_while_followed() {
     let dir = scratch("follow_unit_doubt");
@@ -457,7 +459,19 @@ fn readings_below_ambient_doubt_the_unit_while_followed() {
     );
     assert!(text.contains("check [probes] unit (\"K\")"), "{text}");
     let v = json(&dir.join("out").join("follow.json"));
-    assert_eq!(v["warnings"][0]["kind"], "probe_unit", "{}", v["warnings"]);
+    // And at the end, each probe, its readings all dropped, named by its column, as replay
+    // names it.
+    let kinds: Vec<&str> = v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds, ["probe_unit", "probe_empty"], "{}", v["warnings"]);
+    assert!(
+        text.contains("3 of the probes had no reading (a column 1, b column 2, c column 3)"),
+        "{text}"
+    );
     // Every reading of the 277 rows followed (to the program's end and the longest horizon).
     assert_eq!(v["refused"]["below_ambient"], 3 * 277, "{}", v["refused"]);
 }

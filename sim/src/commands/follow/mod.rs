@@ -83,6 +83,9 @@ struct Counters {
     readings_met: usize,
     #[serde(default)]
     warnings: Vec<(String, String)>,
+    /// Per probe, the readings kept (not empty, not 0, not below ambient).
+    #[serde(default)]
+    kept_per_probe: Vec<usize>,
 }
 
 /// Readings met before `follow` judges the share of them below ambient: a logger's first
@@ -241,6 +244,39 @@ fn in_celsius(values: &mut [Option<f64>], kelvin: bool, ambient_k: f64, c: &mut 
         && c.readings_met >= READINGS_BEFORE_DOUBT
         && let Some(w) = doubts::below_ambient(c.below_ambient, c.readings_met, kelvin, ambient_k)
     {
+        eprintln!("follow: {}", w.line);
+        c.warnings.push((w.kind.to_string(), w.line));
+    }
+}
+
+/// Count each probe's readings kept (not empty, not 0, not below ambient).
+fn count_kept(values: &[Option<f64>], p: &Probes, c: &mut Counters) {
+    c.kept_per_probe.resize(p.points.len(), 0);
+    for (k, v) in values.iter().enumerate().take(p.points.len()) {
+        c.kept_per_probe[k] += usize::from(v.is_some());
+    }
+}
+
+/// At the run's end, the probes whose column held no reading in any row followed, named by
+/// their columns (`probe_empty`, as `replay` names them): a column counted wrong leaves the
+/// twin a probe that never spoke. Not asked sooner: a camera's pixel reads nothing until its
+/// layer is laid (the GAMMA wall's first reading comes at 120 s).
+fn say_empty(p: &Probes, c: &mut Counters) {
+    c.kept_per_probe.resize(p.points.len(), 0);
+    let met: Vec<doubts::Met<'_>> = p
+        .points
+        .iter()
+        .zip(&c.kept_per_probe)
+        .map(|(q, &kept)| doubts::Met {
+            name: &q.name,
+            position_mm: q.position_m.map(|x| x * 1e3),
+            column: q.column,
+            read: kept > 0,
+            // Whether metal met it is the twin's to show, not said here.
+            compared: true,
+        })
+        .collect();
+    for w in doubts::probes(&met) {
         eprintln!("follow: {}", w.line);
         c.warnings.push((w.kind.to_string(), w.line));
     }
@@ -534,6 +570,7 @@ pub fn run(
             &mut rec,
         )?;
     }
+    say_empty(&p, &mut counters);
     write(
         &mut dir, &follower, &names, &priors, &counters, &clock, ending,
     )?;
@@ -787,6 +824,7 @@ fn feed(
     }
     let signals = values.split_off(p.points.len().min(values.len()));
     in_celsius(&mut values, p.kelvin, s.thermal.ambient_k, counters);
+    count_kept(&values, p, counters);
     let before = Instant::now();
     if let Some(m) = machine
         && let Some(row) = machine_row(t, &signals, m)
