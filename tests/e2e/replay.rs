@@ -154,11 +154,11 @@ fn a_bad_toolpath_line_is_named() {
 }
 
 /// A logged track whose points lie a bead's height over the plate lays the beads' metal
-/// (replay.json: `metal_mm3` within 15 % of `beads_mm3`, 336 of 320 mm³ measured, no warning); the same track with
-/// its z half a bead low (a logger's offset) lays none of it, and the replay says so on stderr
-/// with the two volumes and the keys to look at, instead of heating a part that is not there,
-/// and replay.json's `warnings` holds it. Logged 500 mm up (the machine's frame), it is laid on
-/// the plate and said, with the offset.
+/// (replay.json: `metal_mm3` within 15 % of `beads_mm3`, 336 of 320 mm³ measured, no
+/// warning); the same track with its z half a bead low (a logger's offset) lays none of it,
+/// and the replay says so on stderr with the two volumes and the keys to look at, instead of
+/// heating a part that is not there, and replay.json's `warnings` holds it. Logged 500 mm up
+/// (the machine's frame), it is laid on the plate and said, with the offset.
 #[test]
 fn a_track_laid_inside_the_plate_is_named() {
     let dir = scratch("replay_inside_plate");
@@ -373,9 +373,9 @@ fn the_in718_preset_is_the_gamma_tables() {
     assert_eq!(files.density, preset.density);
 }
 
-/// The GAMMA wall on a box plate of the wall's IN718 (the thin wall's plate is a grid of cells,
-/// of one material with the wall), `model` = "thin-wall" or "voxel": the scenario file and its output
-/// folder.
+/// The GAMMA wall on a box plate of the wall's IN718 (the thin wall's plate is a grid of
+/// cells, of one material with the wall), `model` = "thin-wall" or "voxel": the scenario file
+/// and its output folder.
 fn gamma_on_an_in718_box(model: &str) -> (PathBuf, PathBuf) {
     let dir = scratch(&format!("replay_gamma_{model}"));
     let text = std::fs::read_to_string(root().join("scenarios/gamma_in718_wall.toml"))

@@ -102,6 +102,16 @@ pub(crate) fn doubts(
 /// time, a logger's own), and their replay would cool the part for weeks.
 pub(crate) const MOST_COOLING_S: f64 = 1e7;
 
+/// What a refusal of readings on another clock expects instead (`replay`, `calibrate`,
+/// `follow`).
+pub(crate) fn one_clock_expected() -> String {
+    format!(
+        "expected readings on the toolpath's clock, within {MOST_COOLING_S:.0e} s of its end (a \
+         time column of Unix or a logger's own time less the build's start; \
+         toolpath.time_offset_s moves the path by up to {MOST_COOLING_S:.0e} s)"
+    )
+}
+
 /// Refused where the readings `m` of `p` end more than [`MOST_COOLING_S`] after `r`'s last
 /// deposit: the file and the path are on two clocks.
 pub(crate) fn on_one_clock(p: &Probes, m: &probes::Series, r: &Replay) -> Result<()> {
@@ -115,12 +125,10 @@ pub(crate) fn on_one_clock(p: &Probes, m: &probes::Series, r: &Replay) -> Result
     }
     Err(Error::input(format!(
         "{}: readings from {first} s to {last} s, the toolpath's deposits from {start:.1} s to \
-         {end:.1} s: its last reading {:.3e} s after the build; expected readings on the \
-         toolpath's clock, ending within {MOST_COOLING_S:.0e} s of the build (a time column of \
-         Unix or a logger's own time less the build's start; toolpath.time_offset_s moves the \
-         path by up to {MOST_COOLING_S:.0e} s)",
+         {end:.1} s: its last reading {:.3e} s after the build; {}",
         p.file.display(),
-        last - end
+        last - end,
+        one_clock_expected()
     )))
 }
 
@@ -345,14 +353,9 @@ pub(crate) fn measured(p: &Probes, ambient_k: f64) -> Result<(probes::Series, us
     if let Some((n, c, cell)) =
         probes::unit_against_header(&text, p.time_column, &columns, p.kelvin)
     {
-        let (said, named) = if p.kelvin {
-            ("K", "°C")
-        } else {
-            ("C", "kelvin")
-        };
         return Err(Error::input(format!(
-            "{file} line {n}: column {c} is {cell:?}, in {named}; expected [probes] unit \
-             (\"{said}\") to say the file's unit"
+            "{file} line {n}: {}",
+            probes::unit_against(c, &cell, p.kelvin)
         )));
     }
     let mut s = probes::series(&text, &file, p.time_column, &columns)?;

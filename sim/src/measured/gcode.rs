@@ -66,9 +66,9 @@ fn skip_blanks(b: &[u8], mut i: usize) -> usize {
     i
 }
 
-/// The most waypoints a program may make (0.56 GB of them at 56 bytes each): an arc's chords are the only
-/// waypoints a line makes more than one of, up to `ARC_CHORDS_PER_TURN` a turn, so a short file
-/// of arcs could otherwise claim far more memory than it holds.
+/// The most waypoints a program may make (0.56 GB of them at 56 bytes each): an arc's chords
+/// are the only waypoints a line makes more than one of, up to `ARC_CHORDS_PER_TURN` a turn, so
+/// a short file of arcs could otherwise claim far more memory than it holds.
 pub const MOST_WAYPOINTS: usize = 10_000_000;
 
 /// How far an arc's chord may stray from the arc (its sagitta), mm: a hundredth of a

@@ -159,6 +159,20 @@ pub fn unit_against_header(
     None
 }
 
+/// The refusal of a header's `cell` that names column `column`'s unit against `kelvin`
+/// (after the file and line, which the caller names).
+pub fn unit_against(column: usize, cell: &str, kelvin: bool) -> String {
+    let (said, named) = if kelvin {
+        ("K", "°C")
+    } else {
+        ("C", "kelvin")
+    };
+    format!(
+        "column {column} is {cell:?}, in {named}; expected [probes] unit (\"{said}\") to say the \
+         file's unit"
+    )
+}
+
 /// Where one preamble line names the unit of one of `columns` other than `kelvin` says: the
 /// column and the cell.
 pub fn unit_in_line(line: &str, columns: &[usize], kelvin: bool) -> Option<(usize, String)> {

@@ -15,7 +15,7 @@ pub mod opcua;
 pub mod tail;
 
 use super::checkpoint;
-use super::replay::{MOST_COOLING_S, names, set_up};
+use super::replay::{MOST_COOLING_S, names, one_clock_expected, set_up};
 use crate::error::{Error, Result};
 use crate::measured::probes::{self, Line};
 use crate::output::RunDir;
@@ -630,11 +630,9 @@ fn parse(
     {
         return match probes::unit_in_line(text, &l.probes, p.kelvin) {
             Some((column, cell)) => Err(Error::input(format!(
-                "{} line {n}: column {column} is {cell:?}, in {}; expected [probes] unit (\"{}\") \
-                 to say the file's unit",
+                "{} line {n}: {}",
                 p.file.display(),
-                if p.kelvin { "°C" } else { "kelvin" },
-                if p.kelvin { "K" } else { "C" },
+                probes::unit_against(column, &cell, p.kelvin)
             ))),
             None => Ok(None),
         };
@@ -815,11 +813,10 @@ fn feed(
     if t - end_s > MOST_COOLING_S {
         return Err(Error::input(format!(
             "{}: a reading at {t} s, {:.3e} s after the program's last deposit at {end_s:.1} s; \
-             expected readings on the toolpath's clock, within {MOST_COOLING_S:.0e} s of its \
-             end (a time column of Unix or a logger's own time less the build's start; \
-             toolpath.time_offset_s moves the path by up to {MOST_COOLING_S:.0e} s)",
+             {}",
             p.file.display(),
-            t - end_s
+            t - end_s,
+            one_clock_expected()
         )));
     }
     let signals = values.split_off(p.points.len().min(values.len()));

@@ -2,9 +2,9 @@
 //! column held no reading, one that compared nothing (in the air), readings on another clock
 //! than the path's (all before its first arc or all after its last deposit), and a unit that
 //! reads wrong (a file in °C read as kelvin lies below ambient and is dropped; one in kelvin
-//! read as °C starts the cold part near 293 °C). Said, not refused: each can be right (a window that
-//! closes before the metal comes, a plate preheated to about 300 °C), and each would otherwise
-//! leave an empty or shifted comparison and a run that looks whole.
+//! read as °C starts the cold part near 293 °C). Said, not refused: each can be right (a
+//! window that closes before the metal comes, a plate preheated to about 300 °C), and each
+//! would otherwise leave an empty or shifted comparison and a run that looks whole.
 
 use super::setup::BELOW_AMBIENT_K;
 use crate::measured::probes::Series;
