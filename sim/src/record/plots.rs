@@ -692,13 +692,49 @@ fn probe_panel(
         .draw_series(LineSeries::new(s.iter().map(|x| (x.0, x.2)), orange))?
         .label("predicted")
         .legend(move |(x, y)| PathElement::new([(x, y), (x + 14, y)], orange));
+    let points = s.iter().flat_map(|x| [(x.0, x.1), (x.0, x.2)]);
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .label_font((FONT, 12))
+        .position(clearest(points, (t0, t1), (lo, hi)))
         .draw()?;
     Ok(())
+}
+
+/// Where a legend hides the least of the curves: of the four corners and the middle of either
+/// side, the one whose box (a legend's share of the plot, `LEGEND_SHARE`) holds the fewest of
+/// `points`; the first of the least in the order listed. Plotters' own place (the middle of
+/// the right side) lies on a replay's predicted curve where it levels off.
+fn clearest(
+    points: impl Iterator<Item = (f64, f64)>,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> SeriesLabelPosition {
+    use SeriesLabelPosition::*;
+    const LEGEND_SHARE: (f64, f64) = (0.3, 0.25);
+    // Each place's box in the plot's fractions: (x from, y from), up from the bottom.
+    let (w, h) = LEGEND_SHARE;
+    let places = [
+        (UpperRight, (1.0 - w, 1.0 - h)),
+        (UpperLeft, (0.0, 1.0 - h)),
+        (LowerRight, (1.0 - w, 0.0)),
+        (LowerLeft, (0.0, 0.0)),
+        (MiddleRight, (1.0 - w, 0.5 - h / 2.0)),
+        (MiddleLeft, (0.0, 0.5 - h / 2.0)),
+    ];
+    let mut hidden = [0usize; 6];
+    for (x, y) in points {
+        let (u, v) = ((x - x0) / (x1 - x0), (y - y0) / (y1 - y0));
+        for (k, (_, (bu, bv))) in places.iter().enumerate() {
+            if (*bu..=bu + w).contains(&u) && (*bv..=bv + h).contains(&v) {
+                hidden[k] += 1;
+            }
+        }
+    }
+    let best = (0..places.len()).min_by_key(|&k| hidden[k]).unwrap_or(0);
+    places.into_iter().nth(best).map_or(UpperRight, |p| p.0)
 }
 
 /// The map of the local inter-layer distance (Chalvin et al. 2019 Fig. 5 and 7): each path point
@@ -855,6 +891,30 @@ pub fn solidification_plot(dir: &mut RunDir, title: &str, seconds: &[f64]) -> Re
 
 #[cfg(test)]
 mod tests {
+    use plotters::chart::SeriesLabelPosition;
+
+    /// A legend goes where the curves are not: a curve rising to the upper right and levelling
+    /// there leaves the lower right; one falling from the upper left leaves the upper right;
+    /// with nothing drawn the first place listed.
+    #[test]
+    fn a_legend_goes_where_the_curves_are_not() {
+        let place = |f: fn(f64) -> f64| {
+            let points = (0..=100).map(|k| (k as f64, f(k as f64)));
+            super::clearest(points, (0.0, 100.0), (0.0, 100.0))
+        };
+        let rising = |t: f64| 100.0 * (1.0 - (-t / 20.0).exp());
+        assert!(matches!(place(rising), SeriesLabelPosition::LowerRight));
+        assert!(matches!(
+            place(|t| 100.0 - t),
+            SeriesLabelPosition::UpperRight
+        ));
+        let level = |_| 50.0;
+        assert!(matches!(place(level), SeriesLabelPosition::UpperRight));
+        let (x, y) = ((0.0, 1.0), (0.0, 1.0));
+        let none = super::clearest(std::iter::empty(), x, y);
+        assert!(matches!(none, SeriesLabelPosition::UpperRight));
+    }
+
     #[test]
     fn histogram_shares_sum_to_one_inside_the_range() {
         let h = super::histogram(&[1.81, 1.84, 2.0, 2.19], 1.8, 0.05, 8);
