@@ -4,9 +4,11 @@
 //! and the codes that strike and stop the arc, named by the scenario (welding cells differ:
 //! ORNL's Wolf dialect uses M101 and M103). Comments (`;` and parentheses) are dropped; words
 //! may run together (`M5T2D1F0`); a line that is not G-code (Wolf's `BEGINNING LAYER`) is
-//! skipped; codes that would put the path after them in another frame or time it otherwise
-//! (G10, G28, G30, G53, G92, G93, G95, a rotary axis turned) are refused; any other code is
-//! ignored. Time is distance over feed, or over `travel_mm_s` with the arc off where the
+//! skipped; G92 sets the current point's coordinates (an offset from then on; G92.1 and G92.2
+//! take it away, G92.3 brings back the one G92.2 put aside; `G92 E0`, a printer's extruder
+//! reset, leaves X, Y and Z as they are); codes that would put the path after them in a frame
+//! this reader does not know or time it otherwise (G10, G28, G30, G53, G93, G95, a rotary axis
+//! turned) are refused; any other code is ignored. Time is distance over feed, or over `travel_mm_s` with the arc off where the
 //! controller moves faster than programmed.
 
 use super::at_line;
@@ -96,6 +98,10 @@ struct Modal {
     unit_mm: f64,
     /// G17, the XY plane; arcs in G18 and G19 are refused.
     xy_plane: bool,
+    /// G92's offset, mm: where the program's absolute coordinates (and G90.1's centres) lie in
+    /// the path's frame, less what they say; and the offset G92.2 put aside for G92.3.
+    offset: [f64; 3],
+    suspended: [f64; 3],
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -157,6 +163,9 @@ struct Codes {
     dwell: bool,
     /// The line names G0-G3.
     motion: bool,
+    /// G92 and its kin, in tenths (920 to 923): the line's X, Y and Z set the current point's
+    /// coordinates, not a move.
+    position: Option<i64>,
 }
 
 /// Apply the line's G codes to the modal state.
@@ -164,6 +173,7 @@ fn apply_codes(line: &Line, modal: &mut Modal) -> Result<Codes> {
     let mut codes = Codes {
         dwell: false,
         motion: false,
+        position: None,
     };
     for (_, v) in line.words.iter().filter(|(l, _)| *l == 'G') {
         // Tenths: G90.1 and G91.1 are codes of their own.
@@ -183,17 +193,17 @@ fn apply_codes(line: &Line, modal: &mut Modal) -> Result<Codes> {
             910 => modal.relative = true,
             901 => modal.absolute_centre = true,
             911 => modal.absolute_centre = false,
+            920..=923 => codes.position = Some(g),
             // Codes that move to, or redefine, a frame this reader does not know, or time a
             // move otherwise: the path after them would be laid somewhere else, or at another
             // pace (G93 is what `waamtwin export --format gcode` writes, with its A and C).
-            100 | 280 | 300 | 530 | 920 | 930 | 950 => {
+            100 | 280 | 300 | 530 | 930 | 950 => {
                 let (what, expected) = match g {
                     100 => ("a frame's offsets set", FRAME),
                     280 | 300 => ("a return to a home position", FRAME),
                     530 => ("a move in the machine's frame", FRAME),
                     930 => ("inverse-time feed", FEED),
-                    950 => ("feed per spindle turn", FEED),
-                    _ => ("the current point redefined", FRAME),
+                    _ => ("feed per spindle turn", FEED),
                 };
                 return Err(line.fail(format!("G{v} ({what}); expected {expected}")));
             }
@@ -207,6 +217,35 @@ fn apply_codes(line: &Line, modal: &mut Modal) -> Result<Codes> {
 /// in units a minute (G94, the default) that times them.
 const FRAME: &str = "moves in the program's own frame (G0-G3, G90/G91)";
 const FEED: &str = "feed in units a minute (G94, the default) or the dialect's per second";
+
+/// G92 (`g` 920): the line's X, Y and Z say what the current point `at` is called from now on,
+/// the axes it does not name keep their offset, and a line that names no axis at all (not even
+/// a printer's E) is refused, as RS-274 has it; G92.1 and G92.2 (921, 922) take the offset
+/// away, G92.2 keeping it for G92.3 (923), which brings it back (LinuxCNC's reading).
+fn set_position(line: &Line, g: i64, modal: &mut Modal, at: [f64; 3]) -> Result<()> {
+    match g {
+        920 => {
+            let axes = line.words.iter().filter(|(l, _)| l.is_ascii_alphabetic());
+            if !axes
+                .clone()
+                .any(|(l, _)| matches!(l, 'X' | 'Y' | 'Z' | 'E' | 'A' | 'B' | 'C'))
+            {
+                return Err(line.fail(
+                    "G92 naming no axis; expected the axes whose coordinates it sets (G92 X0 Y0)",
+                ));
+            }
+            for (i, l) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+                if let Some(x) = line.value(l)? {
+                    modal.offset[i] = at[i] - x * modal.unit_mm;
+                }
+            }
+        }
+        921 => modal.offset = [0.0; 3],
+        922 => modal.suspended = std::mem::take(&mut modal.offset),
+        _ => modal.offset = modal.suspended,
+    }
+    Ok(())
+}
 
 /// A G4 line's pause, s: P in ms or S in s.
 fn pause_s(line: &Line) -> Result<f64> {
@@ -228,7 +267,11 @@ fn target(line: &Line, modal: &Modal, at: [f64; 3]) -> Result<[f64; 3]> {
     for (i, l) in ['X', 'Y', 'Z'].into_iter().enumerate() {
         if let Some(x) = line.value(l)? {
             let x = x * modal.unit_mm;
-            to[i] = if modal.relative { at[i] + x } else { x };
+            to[i] = if modal.relative {
+                at[i] + x
+            } else {
+                x + modal.offset[i]
+            };
         }
     }
     if !to.iter().all(|x| x.is_finite()) {
@@ -258,7 +301,11 @@ fn arc_centre(
     let centre = |l: char, i: usize| -> Result<Option<f64>> {
         Ok(line.value(l)?.map(|x| {
             let x = x * modal.unit_mm;
-            if modal.absolute_centre { x } else { at[i] + x }
+            if modal.absolute_centre {
+                x + modal.offset[i]
+            } else {
+                at[i] + x
+            }
         }))
     };
     let c = match (centre('I', 0)?, centre('J', 1)?, line.value('R')?) {
@@ -290,6 +337,8 @@ pub fn waypoints(text: &str, file: &str, d: &Dialect) -> Result<Vec<Waypoint>> {
         absolute_centre: false,
         unit_mm: 1.0,
         xy_plane: true,
+        offset: [0.0; 3],
+        suspended: [0.0; 3],
     };
     let mut out = vec![Waypoint {
         t_s: 0.0,
@@ -314,6 +363,10 @@ pub fn waypoints(text: &str, file: &str, d: &Dialect) -> Result<Vec<Waypoint>> {
             welding = false;
         }
         let codes = apply_codes(&line, &mut modal)?;
+        if let Some(g) = codes.position {
+            set_position(&line, g, &mut modal, at)?;
+            continue;
+        }
         if codes.dwell {
             let pause = pause_s(&line)?;
             if pause > 0.0 {
@@ -548,6 +601,43 @@ mod tests {
         assert!(e.message.contains("before any feed"), "{}", e.message);
     }
 
+    /// G92 as programs use it: a printer's `G92 E0` moves nothing; `G92 X0 Y0` at (11, 20)
+    /// lays the next absolute move 11 and 20 mm on, and a G90.1 arc's centre with it (a whole
+    /// turn whose every point lies on the circle about the shifted centre); a relative move is
+    /// not shifted; G92.2 puts the offset aside and G92.3 brings it back, G92.1 takes it away;
+    /// a G92 line is not a move (its X is the point's new name, not a target).
+    #[test]
+    fn g92_sets_the_current_points_coordinates() {
+        let g = "G1 X10 Y20 F600\nG92 E0\nG1 X11 Y20\nG92 X0 Y0\nG1 X5\nG91\nG1 Y1\nG90\n\
+                 G92.2\nG1 X5\nG92.3\nG1 X0 Y0\nG90.1 G2 X0 Y0 I3 J0\nG92.1\nG1 X1 Y1\n";
+        let w = waypoints(g, "p.nc", &standard()).unwrap();
+        let at: Vec<[f64; 2]> = w
+            .iter()
+            .map(|p| [p.position_mm[0], p.position_mm[1]])
+            .collect();
+        assert_eq!(
+            &at[..6],
+            [
+                [0.0, 0.0],
+                [10.0, 20.0],
+                [11.0, 20.0],
+                [16.0, 20.0],
+                [16.0, 21.0],
+                [5.0, 21.0]
+            ]
+        );
+        assert_eq!(at[6], [11.0, 20.0]);
+        // The turn about (14, 20), radius 3, ends where it began.
+        let turn = &at[7..at.len() - 1];
+        assert!(turn.len() > 30, "{}", turn.len());
+        for p in turn {
+            let r = (p[0] - 14.0).hypot(p[1] - 20.0);
+            assert!((r - 3.0).abs() < 1e-9, "{p:?} {r}");
+        }
+        assert_eq!(*turn.last().unwrap(), [11.0, 20.0]);
+        assert_eq!(*at.last().unwrap(), [1.0, 1.0]);
+    }
+
     fn standard() -> Dialect {
         Dialect {
             arc_on: "M3".into(),
@@ -686,10 +776,7 @@ mod tests {
     #[test]
     fn what_it_cannot_lay_is_refused_naming_the_line() {
         for (g, says) in [
-            (
-                "G1 X1 F1\nG92 X0\n",
-                "p.nc line 2: G92 (the current point redefined)",
-            ),
+            ("G1 X1 F1\nG92\n", "p.nc line 2: G92 naming no axis"),
             (
                 "G1 X1 F1\nG28 X0\n",
                 "line 2: G28 (a return to a home position)",
