@@ -4,8 +4,11 @@
 //!
 //! The column names default to those of ORNL's calibration log (`t_s`, `weld_voltage_v`,
 //! `weld_current_a`, `weld_on`, `x_mm`, `y_mm`, `z_mm`); a first row of the logger starting up
-//! (time, power and position all 0) is skipped.
+//! (time, power and position all 0) is skipped. The header is the first line that names the
+//! time column, within the first `MOST_PREAMBLE_LINES` (a logger's name and start may come
+//! before it), else the first line.
 
+use super::probes::MOST_PREAMBLE_LINES;
 use super::toolpath::Waypoint;
 use super::{at_line, cells};
 use crate::error::{Error, Result};
@@ -34,12 +37,19 @@ impl Default for Columns {
 
 /// The log as waypoints; `file` names it in messages.
 pub fn waypoints(text: &str, file: &str, c: &Columns) -> Result<Vec<Waypoint>> {
-    let mut lines = text.lines().enumerate();
+    let names_time = |l: &str| cells(l).contains(&c.t_s.as_str());
+    let at = text
+        .lines()
+        .take(MOST_PREAMBLE_LINES)
+        .position(names_time)
+        .unwrap_or(0);
+    let mut lines = text.lines().enumerate().skip(at);
     let header: Vec<&str> = lines.next().map(|(_, l)| cells(l)).unwrap_or_default();
     let find = |name: &str| {
         header.iter().position(|h| *h == name).ok_or_else(|| {
             Error::input(format!(
-                "{file} line 1: no column {name:?}; the header has {}",
+                "{file} line {}: no column {name:?}; the header has {}",
+                at + 1,
                 header.join(", ")
             ))
         })
@@ -174,6 +184,25 @@ mod tests {
         .unwrap_err();
         assert!(
             e.message.contains("line 4: weld_voltage_v = \"\""),
+            "{}",
+            e.message
+        );
+    }
+
+    /// A logger's lines before its header are passed over, the rows read as under a first-line
+    /// header (they were "no column" errors); a missing column is named at the header's line.
+    #[test]
+    fn a_preamble_before_the_header_is_passed_over() {
+        let with = format!("Logger: cell 3\nstarted 2026-11-30 12:00\n{LOG}");
+        let w = waypoints(&with, "log.csv", &Columns::default()).unwrap();
+        assert_eq!(w, waypoints(LOG, "log.csv", &Columns::default()).unwrap());
+        let c = Columns {
+            on: "arc".into(),
+            ..Columns::default()
+        };
+        let e = waypoints(&with, "log.csv", &c).unwrap_err();
+        assert!(
+            e.message.contains("log.csv line 3: no column \"arc\""),
             "{}",
             e.message
         );

@@ -1,11 +1,13 @@
 //! A toolpath as the machine ran it: waypoints in time, each saying whether metal was laid on
 //! the way to it.
 //!
-//! The event-series CSV: `t_s, x_mm, y_mm, z_mm, on` per line, optionally under a header line;
+//! The event-series CSV: `t_s, x_mm, y_mm, z_mm, on` per line, optionally under a preamble (lines
+//! before the first whose time reads, at most `MOST_PREAMBLE_LINES`, a header among them);
 //! `on` is 0 or 1 (the segment ending at this waypoint deposits), a power in W (deposits when
 //! above 0), or `_POWER_` (deposits at the scenario's power: ORNL's event series leaves the
 //! power to the machine log). Times must increase.
 
+use super::probes::{MOST_PREAMBLE_LINES, time_reads};
 use super::{at_line, cells};
 use crate::error::Result;
 
@@ -23,14 +25,27 @@ pub struct Waypoint {
 /// Read an event series; `file` names it in messages.
 pub fn event_series(text: &str, file: &str) -> Result<Vec<Waypoint>> {
     let mut out: Vec<Waypoint> = Vec::new();
+    let mut preamble = 0;
     for (k, line) in text.lines().enumerate() {
         let n = k + 1;
         let f = cells(line);
         if f.iter().all(|c| c.is_empty()) || line.trim_start().starts_with('#') {
             continue;
         }
-        // A header: the first line whose first field is not a number.
-        if out.is_empty() && k == 0 && f[0].parse::<f64>().is_err() {
+        // The preamble: lines before the first whose time reads (an exporter's name, a header,
+        // a line of units under it), each held to the columns it names (`header`).
+        if out.is_empty() && !time_reads(line, 0) {
+            preamble += 1;
+            if preamble > MOST_PREAMBLE_LINES {
+                return Err(at_line(
+                    file,
+                    n,
+                    format!(
+                        "no time in column 0 in the first {MOST_PREAMBLE_LINES} lines; expected \
+                         rows of t_s, x_mm, y_mm, z_mm, on"
+                    ),
+                ));
+            }
             header(&f).map_err(|e| at_line(file, n, e))?;
             continue;
         }
@@ -207,6 +222,33 @@ mod tests {
                 e.message
             );
         }
+    }
+
+    /// A header under a comment or an exporter's lines is read as a header (it was a bad row,
+    /// "t_s = \"t_s\""), and held to its columns there too; a file of no rows in its first 100
+    /// lines says so.
+    #[test]
+    fn a_preamble_is_passed_over_and_its_header_read() {
+        let rows = "0,0,0,0,0\n1,10,0,0,1\n";
+        for preamble in [
+            "# exported 2026-11-30\nt_s,x_mm,y_mm,z_mm,on\n",
+            "robot: KUKA KR 60\nt_s,x_mm,y_mm,z_mm,on\ns,mm,mm,mm,-\n",
+        ] {
+            let w = event_series(&format!("{preamble}{rows}"), "e.csv");
+            assert_eq!(w.map(|w| w.len()).ok(), Some(2), "{preamble}");
+        }
+        let e = event_series(&format!("robot\nt_s,x_m,y_m,z_m,on\n{rows}"), "e.csv").unwrap_err();
+        assert!(
+            e.message.contains("e.csv line 2: the header's column 1"),
+            "{}",
+            e.message
+        );
+        let e = event_series(&"log\n".repeat(101), "e.csv").unwrap_err();
+        assert!(
+            e.message.contains("e.csv line 101: no time"),
+            "{}",
+            e.message
+        );
     }
 
     #[test]
