@@ -476,6 +476,72 @@ fn readings_below_ambient_doubt_the_unit_while_followed() {
     assert_eq!(v["refused"]["below_ambient"], 3 * 277, "{}", v["refused"]);
 }
 
+/// The two doubts `replay` has of a file that only its first readings or the whole run show,
+/// said by `follow` too (once, on stderr and in follow.json's `warnings`): readings in kelvin
+/// read as °C, the part before the first arc (the path put 20 s on by `time_offset_s`) at
+/// 298 °C, ambient's kelvin (`probe_unit`, said at the first reading after the arc); and a
+/// logger 200 s ahead of the program, its first reading after the last deposit
+/// (`probe_clock`, said at that reading).
+#[test]
+fn a_file_in_kelvin_read_as_celsius_and_a_logger_ahead_are_doubted_while_followed() {
+    let kinds = |dir: &Path| -> Vec<String> {
+        let v = json(&dir.join("out").join("follow.json"));
+        v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["kind"].as_str().unwrap().to_string())
+            .collect()
+    };
+    let dir = scratch("follow_kelvin_as_celsius");
+    let (scenario, lines) = small_wall(&dir, "");
+    let text = std::fs::read_to_string(&scenario).unwrap();
+    let later = text.replace(
+        "deposit_mm = 2.0\n",
+        "deposit_mm = 2.0\ntime_offset_s = 20.0\n",
+    );
+    std::fs::write(&scenario, later).unwrap();
+    let kelvin: Vec<String> = lines
+        .iter()
+        .enumerate()
+        .map(|(k, l)| match k {
+            0 => "t_s,a,b,c".to_string(),
+            _ => {
+                let cells: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
+                let k: Vec<String> = cells[1..]
+                    .iter()
+                    .map(|c| format!("{:.2}", c + 273.15))
+                    .collect();
+                format!("{},{}", cells[0], k.join(","))
+            }
+        })
+        .collect();
+    let (ok, text) = follow_written(&scenario, &kelvin, false, Duration::from_secs(300));
+    assert!(ok, "{text}");
+    assert_eq!(
+        text.matches("as a file in kelvin read as °C does").count(),
+        1,
+        "{text}"
+    );
+    assert_eq!(kinds(&dir), ["probe_unit"]);
+
+    let dir = scratch("follow_logger_ahead");
+    let (scenario, lines) = small_wall(&dir, "");
+    let ahead: Vec<String> = lines
+        .iter()
+        .enumerate()
+        .map(|(k, l)| match (k, l.split_once(',')) {
+            (0, _) | (_, None) => l.clone(),
+            (_, Some((t, rest))) => format!("{},{rest}", 200.0 + t.parse::<f64>().unwrap()),
+        })
+        .collect();
+    let (ok, text) = follow_written(&scenario, &ahead, false, Duration::from_secs(300));
+    assert!(ok, "{text}");
+    let said = "the readings begin at 200 s, after the last deposit at 108.0 s";
+    assert_eq!(text.matches(said).count(), 1, "{text}");
+    assert_eq!(kinds(&dir), ["probe_clock"]);
+}
+
 /// A logger on Unix time (1.77e9 s, the program 0–108 s) is refused at its first row, before
 /// it is fed, as `replay` refuses the file: the twin set out to cool the part for 56 years
 /// before the reading, and `follow` ran on past any bound.

@@ -22,6 +22,7 @@ use crate::output::RunDir;
 use crate::pipeline::calibrate::Range;
 use crate::pipeline::checkpoint::Checkpoints;
 use crate::pipeline::replay::{BELOW_AMBIENT_K, Parameter, Replay, doubts};
+use crate::pipeline::resolution::Warning;
 use crate::pipeline::twin::asrun::MachineRow;
 use crate::pipeline::twin::follow::{Alarm, Follower, Forecast, Horizon, KeptOwned, Unit};
 use crate::pipeline::twin::{Twin, Uncertain};
@@ -86,7 +87,18 @@ struct Counters {
     /// Per probe, the readings kept (not empty, not 0, not below ambient).
     #[serde(default)]
     kept_per_probe: Vec<usize>,
+    /// Readings kept before the first arc (°C, at most `COLD_KEPT`), until the file's unit is
+    /// judged on them (`doubts::lookalike`): at the first reading after the first arc, or at
+    /// the run's end.
+    #[serde(default)]
+    cold: Vec<f64>,
+    #[serde(default)]
+    cold_judged: bool,
 }
+
+/// The most readings before the first arc kept to judge the file's unit by: their median is
+/// what is judged, and a few thousand readings of a part standing at ambient tell it.
+const COLD_KEPT: usize = 4096;
 
 /// Readings met before `follow` judges the share of them below ambient: a logger's first
 /// rows may all be a cold start's.
@@ -239,13 +251,76 @@ fn in_celsius(values: &mut [Option<f64>], kelvin: bool, ambient_k: f64, c: &mut 
             }
         }
     }
-    let doubted = c.warnings.iter().any(|w| w.0 == "probe_unit");
-    if !doubted
-        && c.readings_met >= READINGS_BEFORE_DOUBT
+    if c.readings_met >= READINGS_BEFORE_DOUBT
         && let Some(w) = doubts::below_ambient(c.below_ambient, c.readings_met, kelvin, ambient_k)
     {
+        say_once(c, w);
+    }
+}
+
+/// A doubt said once: on stderr and in follow.json's `warnings`, unless one of its kind was.
+fn say_once(c: &mut Counters, w: Warning) {
+    if c.warnings.iter().all(|(kind, _)| kind != w.kind) {
         eprintln!("follow: {}", w.line);
         c.warnings.push((w.kind.to_string(), w.line));
+    }
+}
+
+/// The first arc and the last deposit of the build, s.
+fn build_span(deps: &[thermal::schedule::Deposit]) -> (f64, f64) {
+    let first_arc_s = deps.first().map_or(0.0, |d| d.arc_start());
+    (first_arc_s, deps.last().map_or(0.0, |d| d.time))
+}
+
+/// The readings' clock and the file's unit, doubted as `replay` doubts them and as soon as the
+/// readings show it: a first reading (at `t`) after the last deposit (`probe_clock`: a logger
+/// an hour ahead of the program); readings before the first arc at ambient's kelvin read as
+/// °C (`probe_unit`), judged at the first reading after the arc. What shows only at the end
+/// (all readings before the first arc) is said by `say_at_end`.
+fn doubt_live(
+    t: f64,
+    values: &[Option<f64>],
+    deps: &[thermal::schedule::Deposit],
+    c: &mut Counters,
+    (kelvin, ambient_k): (bool, f64),
+) {
+    let (first_arc_s, last_s) = build_span(deps);
+    if c.first_data_s.is_none()
+        && t > last_s
+        && let Some(w) = doubts::clock(&[t], first_arc_s, last_s)
+    {
+        say_once(c, w);
+    }
+    if kelvin || c.cold_judged {
+        return;
+    }
+    if t < first_arc_s {
+        let room = COLD_KEPT.saturating_sub(c.cold.len());
+        c.cold.extend(values.iter().flatten().take(room));
+        return;
+    }
+    judge_cold(c, ambient_k, first_arc_s);
+}
+
+/// The file's unit judged on the readings kept before the first arc, once.
+fn judge_cold(c: &mut Counters, ambient_k: f64, first_arc_s: f64) {
+    c.cold_judged = true;
+    if let Some(w) = doubts::lookalike(std::mem::take(&mut c.cold), ambient_k, first_arc_s) {
+        say_once(c, w);
+    }
+}
+
+/// At the run's end, what only the whole run shows: readings that all ended before the first
+/// arc (`probe_clock`), and the unit judged on them where no reading came after it.
+fn say_at_end(f: &Follower, c: &mut Counters, (kelvin, ambient_k): (bool, f64)) {
+    let (first_arc_s, last_s) = build_span(f.twin.deps());
+    if let (Some(first), Some(last)) = (c.first_data_s, f.data_s())
+        && let Some(w) = doubts::clock(&[first, last], first_arc_s, last_s)
+    {
+        say_once(c, w);
+    }
+    if !kelvin && !c.cold_judged {
+        judge_cold(c, ambient_k, first_arc_s);
     }
 }
 
@@ -571,6 +646,7 @@ pub fn run(
         )?;
     }
     say_empty(&p, &mut counters);
+    say_at_end(&follower, &mut counters, (p.kelvin, s.thermal.ambient_k));
     write(
         &mut dir, &follower, &names, &priors, &counters, &clock, ending,
     )?;
@@ -822,6 +898,8 @@ fn feed(
     let signals = values.split_off(p.points.len().min(values.len()));
     in_celsius(&mut values, p.kelvin, s.thermal.ambient_k, counters);
     count_kept(&values, p, counters);
+    let unit = (p.kelvin, s.thermal.ambient_k);
+    doubt_live(t, &values, follower.twin.deps(), counters, unit);
     let before = Instant::now();
     if let Some(m) = machine
         && let Some(row) = machine_row(t, &signals, m)

@@ -139,17 +139,24 @@ pub fn unit(
     if kelvin {
         return None;
     }
-    let ambient_c = ambient_k - C;
-    let mut cold: Vec<f64> = m
+    let cold: Vec<f64> = m
         .t_s
         .iter()
         .enumerate()
         .filter(|(_, t)| **t < first_arc_s)
         .flat_map(|(j, _)| m.values.iter().filter_map(move |v| v[j]))
         .collect();
+    lookalike(cold, ambient_k, first_arc_s)
+}
+
+/// Whether readings in °C taken before the first arc (`cold`, at `first_arc_s`: the part stands
+/// at ambient) read, at their median, within `KELVIN_LOOKALIKE_K` of ambient's kelvin and far
+/// above ambient: a file in kelvin read as °C (`probe_unit`).
+pub fn lookalike(mut cold: Vec<f64>, ambient_k: f64, first_arc_s: f64) -> Option<Warning> {
     if cold.is_empty() {
         return None;
     }
+    let ambient_c = ambient_k - C;
     cold.sort_by(f64::total_cmp);
     let median = cold[cold.len() / 2];
     let lookalike = (median - ambient_k).abs() <= KELVIN_LOOKALIKE_K && median - ambient_c > 100.0;
