@@ -830,6 +830,7 @@ pub fn standoff_plot(
             .configure_mesh()
             .x_desc("drop")
             .y_desc("CTDWP, mm")
+            .x_label_formatter(&whole)
             .label_style((FONT, 15))
             .draw()?;
         let red = RGBColor(210, 60, 60);
@@ -875,6 +876,7 @@ pub fn solidification_plot(dir: &mut RunDir, title: &str, seconds: &[f64]) -> Re
             .configure_mesh()
             .x_desc("drop")
             .y_desc("time to solidify after the arc, s")
+            .x_label_formatter(&whole)
             .label_style((FONT, 15))
             .draw()?;
         let blue = RGBColor(50, 100, 220);

@@ -2121,8 +2121,21 @@ impl HeatRun for VoxelRun {
         self.model.mean_t(&self.model.beneath(&self.deps, i))
     }
 
+    /// The mean of deposit i's own voxels; a deposit too thin to fill a cell of its own (a
+    /// skeleton's drop where branches meet, 0.4 mm on 1 mm cells) has its metal in the cells
+    /// where it lies, and reads the one nearest the middle of its segment, else the metal of
+    /// the last deposit before it that laid any (as the snapshots and peaks take it): it read
+    /// ambient, and such a drop was taken for solid as the arc left it.
     fn temperature_of(&self, i: usize) -> f64 {
-        self.model.mean_t(&self.model.laid[i])
+        let m = &self.model;
+        if !m.laid[i].is_empty() {
+            return m.mean_t(&m.laid[i]);
+        }
+        let (a, b) = (segment_start(&self.deps, i), self.deps[i].position);
+        match m.voxel_near(std::array::from_fn(|k| 0.5 * (a[k] + b[k]))) {
+            Some(v) => m.temperature(v),
+            None => m.metal_t(i),
+        }
     }
 
     fn cooling_steps(&self) -> CoolingSteps {
