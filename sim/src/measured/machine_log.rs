@@ -37,14 +37,14 @@ impl Default for Columns {
 
 /// The log as waypoints; `file` names it in messages.
 pub fn waypoints(text: &str, file: &str, c: &Columns) -> Result<Vec<Waypoint>> {
-    let names_time = |l: &str| cells(l).contains(&c.t_s.as_str());
+    let names_time = |l: &str| cells(l).iter().any(|h| *h == c.t_s.as_str());
     let at = text
         .lines()
         .take(MOST_PREAMBLE_LINES)
         .position(names_time)
         .unwrap_or(0);
     let mut lines = text.lines().enumerate().skip(at);
-    let header: Vec<&str> = lines.next().map(|(_, l)| cells(l)).unwrap_or_default();
+    let header = lines.next().map(|(_, l)| cells(l)).unwrap_or_default();
     let find = |name: &str| {
         header.iter().position(|h| *h == name).ok_or_else(|| {
             Error::input(format!(

@@ -102,7 +102,7 @@ fn read(
     };
     let mut values = Vec::with_capacity(columns.len());
     for &c in columns {
-        values.push(match f[c] {
+        values.push(match &*f[c] {
             "" => None,
             text => match (text.parse::<f64>(), kind) {
                 (Ok(v), Kind::Temperature) if v > HOTTEST_READING => {
@@ -258,6 +258,20 @@ mod tests {
         assert_eq!(s.t_s, vec![0.0, 0.5]);
         assert_eq!(s.values[0], vec![Some(25.1), None]);
         assert_eq!(s.values[1], vec![None, Some(300.5)]);
+    }
+
+    /// A file as a logger or spreadsheet in a German or French locale writes it: semicolons
+    /// between cells, decimal commas in the numbers, an empty reading kept in its place, and a
+    /// preamble whose date holds a comma; read as the same file with commas and points.
+    #[test]
+    fn semicolons_and_decimal_commas_read_as_points() {
+        let german = "Messung 30.11.2026, 12:00\nZeit;TC1;TC2\n0,0;25,3;-1,5e1\n0,5;;26\n";
+        let s = series(german, "tc.csv", 0, &[1, 2]).unwrap();
+        let plain = series("t,a,b\n0.0,25.3,-15\n0.5,,26\n", "tc.csv", 0, &[1, 2]).unwrap();
+        assert_eq!((s.t_s, s.values), (plain.t_s, plain.values));
+        // A cell with two commas is no number: named, not read as another.
+        let e = series("Zeit;TC1\n0,0;25,3,1\n", "tc.csv", 0, &[1]).unwrap_err();
+        assert!(e.message.contains("tc.csv line 2"), "{}", e.message);
     }
 
     /// A logger's preamble (its name, the start, the header, a line of units) is passed over;

@@ -68,7 +68,7 @@ pub fn event_series(text: &str, file: &str) -> Result<Vec<Waypoint>> {
         };
         let t_s = number(0, "t_s")?;
         let position_mm = [number(1, "x_mm")?, number(2, "y_mm")?, number(3, "z_mm")?];
-        let (on, power_w) = match f[4] {
+        let (on, power_w) = match &*f[4] {
             "_POWER_" => (true, None),
             _ => match number(4, "on")? {
                 v if v == 0.0 || v == 1.0 => (v == 1.0, None),
@@ -137,7 +137,7 @@ fn named(cell: &str) -> Option<(usize, String)> {
 /// A header that names the columns is held to them: each in its place and in its unit, so
 /// that a file in another order (`t_s, on, x_mm, …`) or unit (`x_m`, `t_ms`) is refused rather
 /// than read by position.
-fn header(cells: &[&str]) -> std::result::Result<(), String> {
+fn header(cells: &[std::borrow::Cow<'_, str>]) -> std::result::Result<(), String> {
     for (k, cell) in cells.iter().enumerate().take(COLUMNS.len()) {
         let Some((column, unit)) = named(cell) else {
             continue;
