@@ -1,5 +1,6 @@
-//! G-code as a machine runs it: moves (G0, G1) and arcs in the XY plane (G2, G3, by centre
-//! or radius, cut into chords within `ARC_SAGITTA_MM`), modal motion, absolute or relative
+//! G-code as a machine runs it: moves (G0, G1) and arcs (G2, G3, by centre or radius, in the
+//! XY, ZX or YZ plane of G17-G19, of P turns, cut into chords within `ARC_SAGITTA_MM`), modal
+//! motion, absolute or relative
 //! coordinates (G90, G91) in mm or inches (G21, G20), feed F, dwells (G4 P in ms or S in s),
 //! and the codes that strike and stop the arc, named by the scenario (welding cells differ:
 //! ORNL's Wolf dialect uses M101 and M103). Comments (`;` and parentheses) are dropped; words
@@ -96,12 +97,56 @@ struct Modal {
     absolute_centre: bool,
     /// mm per unit of the program: 1 (G21) or 25.4 (G20).
     unit_mm: f64,
-    /// G17, the XY plane; arcs in G18 and G19 are refused.
-    xy_plane: bool,
+    /// The plane arcs turn in: G17 (XY), G18 (ZX), G19 (YZ).
+    plane: Plane,
     /// G92's offset, mm: where the program's absolute coordinates (and G90.1's centres) lie in
     /// the path's frame, less what they say; and the offset G92.2 put aside for G92.3.
     offset: [f64; 3],
     suspended: [f64; 3],
+}
+
+/// The plane an arc turns in, as RS-274 names it: G17 XY, G18 ZX, G19 YZ, each with its two
+/// axes in right-handed order and its normal (Z, Y, X), so that an arc clockwise seen from the
+/// normal's tip (G2) is clockwise in the plane's own coordinates, as in XY.
+#[derive(Clone, Copy, PartialEq)]
+enum Plane {
+    Xy,
+    Zx,
+    Yz,
+}
+
+impl Plane {
+    /// The plane's first axis, second axis and normal, as indices into (x, y, z).
+    fn axes(self) -> [usize; 3] {
+        match self {
+            Plane::Xy => [0, 1, 2],
+            Plane::Zx => [2, 0, 1],
+            Plane::Yz => [1, 2, 0],
+        }
+    }
+
+    /// The words that give the centre's offset along the plane's two axes.
+    fn centre_words(self) -> [char; 2] {
+        match self {
+            Plane::Xy => ['I', 'J'],
+            Plane::Zx => ['K', 'I'],
+            Plane::Yz => ['J', 'K'],
+        }
+    }
+
+    /// A point in the plane's coordinates (its first axis, its second, the normal).
+    fn into_plane(self, p: [f64; 3]) -> [f64; 3] {
+        self.axes().map(|k| p[k])
+    }
+
+    /// A point in the plane's coordinates back in (x, y, z).
+    fn out_of_plane(self, q: [f64; 3]) -> [f64; 3] {
+        let mut p = [0.0; 3];
+        for (k, a) in self.axes().into_iter().enumerate() {
+            p[a] = q[k];
+        }
+        p
+    }
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -185,8 +230,9 @@ fn apply_codes(line: &Line, modal: &mut Modal) -> Result<Codes> {
             20 => modal.motion = Some(Motion::Arc { clockwise: true }),
             30 => modal.motion = Some(Motion::Arc { clockwise: false }),
             40 => codes.dwell = true,
-            170 => modal.xy_plane = true,
-            180 | 190 => modal.xy_plane = false,
+            170 => modal.plane = Plane::Xy,
+            180 => modal.plane = Plane::Zx,
+            190 => modal.plane = Plane::Yz,
             200 => modal.unit_mm = 25.4,
             210 => modal.unit_mm = 1.0,
             900 => modal.relative = false,
@@ -280,45 +326,52 @@ fn target(line: &Line, modal: &Modal, at: [f64; 3]) -> Result<[f64; 3]> {
     Ok(to)
 }
 
-/// The centre of a G2/G3 line's arc from `at` to `to`: by I and J, or by R.
+/// The most turns one arc line may make (its P): a helix of a thousand turns is 360 000 chords.
+const MOST_TURNS: f64 = 1000.0;
+
+/// The turns a G2/G3 line makes: its P, a whole number from 1 (a partial turn and P − 1 whole
+/// ones more, RS-274's reading), 1 without it.
+fn arc_turns(line: &Line) -> Result<u32> {
+    match line.value('P')? {
+        None => Ok(1),
+        Some(p) if (1.0..=MOST_TURNS).contains(&p) && p.fract() == 0.0 => Ok(p as u32),
+        Some(p) => Err(line.fail(format!(
+            "P{p} turns of an arc; expected a whole number of turns from 1 to {MOST_TURNS}"
+        ))),
+    }
+}
+
+/// The centre of a G2/G3 line's arc from `at` to `to` (both in the plane's coordinates,
+/// [`Plane::into_plane`]), in the plane: by its centre words (I and J in XY), or by R.
 fn arc_centre(
     line: &Line,
     modal: &Modal,
     (at, to): ([f64; 3], [f64; 3]),
     clockwise: bool,
 ) -> Result<[f64; 2]> {
-    if !modal.xy_plane {
-        return Err(line
-            .fail("an arc in the XZ or YZ plane (G18, G19); expected arcs in the XY plane (G17)"));
-    }
-    if let Some(turns) = line.value('P')?
-        && turns != 1.0
-    {
-        return Err(line.fail(format!(
-            "P{turns} turns of an arc; expected one turn at most (no P)"
-        )));
-    }
+    let [u, v] = modal.plane.centre_words();
+    let axes = modal.plane.axes();
     let centre = |l: char, i: usize| -> Result<Option<f64>> {
         Ok(line.value(l)?.map(|x| {
             let x = x * modal.unit_mm;
             if modal.absolute_centre {
-                x + modal.offset[i]
+                x + modal.offset[axes[i]]
             } else {
                 at[i] + x
             }
         }))
     };
-    let c = match (centre('I', 0)?, centre('J', 1)?, line.value('R')?) {
+    let c = match (centre(u, 0)?, centre(v, 1)?, line.value('R')?) {
         (None, None, Some(r)) => {
             centre_of_radius(at, to, r * modal.unit_mm, clockwise).map_err(|why| line.fail(why))
         }
-        (None, None, None) => {
-            Err(line.fail("an arc with neither its centre (I, J) nor its radius (R)"))
-        }
+        (None, None, None) => Err(line.fail(format!(
+            "an arc with neither its centre ({u}, {v}) nor its radius (R)"
+        ))),
         (i, j, None) => Ok([i.unwrap_or(at[0]), j.unwrap_or(at[1])]),
-        (_, _, Some(_)) => {
-            Err(line.fail("an arc with both its centre (I, J) and its radius (R); expected one"))
-        }
+        (_, _, Some(_)) => Err(line.fail(format!(
+            "an arc with both its centre ({u}, {v}) and its radius (R); expected one"
+        ))),
     }?;
     if !c.iter().all(|x| x.is_finite()) {
         return Err(line.fail(format!(
@@ -336,7 +389,7 @@ pub fn waypoints(text: &str, file: &str, d: &Dialect) -> Result<Vec<Waypoint>> {
         relative: false,
         absolute_centre: false,
         unit_mm: 1.0,
-        xy_plane: true,
+        plane: Plane::Xy,
         offset: [0.0; 3],
         suspended: [0.0; 3],
     };
@@ -420,8 +473,14 @@ pub fn waypoints(text: &str, file: &str, d: &Dialect) -> Result<Vec<Waypoint>> {
         let (points, step_mm) = match motion {
             Motion::Rapid | Motion::Linear => (vec![to], distance(at, to)),
             Motion::Arc { clockwise } => {
-                let centre = arc_centre(&line, &modal, (at, to), clockwise)?;
-                arc_chords(at, to, centre, clockwise).map_err(|why| line.fail(why))?
+                let plane = modal.plane;
+                let ends = (plane.into_plane(at), plane.into_plane(to));
+                let centre = arc_centre(&line, &modal, ends, clockwise)?;
+                let turns = arc_turns(&line)?;
+                let (points, step) =
+                    arc_chords(ends, centre, clockwise, turns).map_err(|why| line.fail(why))?;
+                let points = points.into_iter().map(|q| plane.out_of_plane(q));
+                (points.collect(), step)
             }
         };
         if step_mm == 0.0 {
@@ -503,15 +562,16 @@ fn centre_of_radius(
     Ok([mid[0] + side * h * left[0], mid[1] + side * h * left[1]])
 }
 
-/// The chords of the arc (a helix where z changes) from `from` to `to` about `centre` in the
-/// XY plane, each point after `from`, the last `to` itself: a whole turn where they coincide;
+/// The chords of the arc (a helix where the third coordinate changes) from `from` to `to` about
+/// `centre`, all in the plane's coordinates ([`Plane::into_plane`]), each point after `from`,
+/// the last `to` itself: a whole turn where they coincide, and `turns` − 1 whole turns more;
 /// and the length of arc each chord stands for (each spans the same angle). The radius runs
 /// from the start's to the end's (they may differ by `ARC_END_MM`).
 fn arc_chords(
-    from: [f64; 3],
-    to: [f64; 3],
+    (from, to): ([f64; 3], [f64; 3]),
     centre: [f64; 2],
     clockwise: bool,
+    turns: u32,
 ) -> std::result::Result<(Vec<[f64; 3]>, f64), String> {
     let r0 = (from[0] - centre[0]).hypot(from[1] - centre[1]);
     let r1 = (to[0] - centre[0]).hypot(to[1] - centre[1]);
@@ -534,6 +594,8 @@ fn arc_chords(
             sweep += tau;
         }
     }
+    // P turns: P − 1 whole turns more, the same way.
+    sweep += sweep.signum() * tau * f64::from(turns - 1);
     let r = r0.max(r1);
     let by_sagitta = 2.0 * (1.0 - (ARC_SAGITTA_MM / r).min(1.0)).acos();
     let step = by_sagitta.max(tau / ARC_CHORDS_PER_TURN);
@@ -599,6 +661,53 @@ mod tests {
         assert!(e.message.contains("p.nc line 1: X1.0.0"), "{}", e.message);
         let e = waypoints("G1 X10\n", "p.nc", &d).unwrap_err();
         assert!(e.message.contains("before any feed"), "{}", e.message);
+    }
+
+    /// Arcs in the other planes and of several turns: G18's half turn from (0, 0, 0) to
+    /// (10, 0, 0) about I5 lies in the ZX plane (y 0 throughout), G2 through z = −5 (clockwise
+    /// seen from +Y, the plane's axes taken Z then X as RS-274 orders them), G3 through z = 5;
+    /// G19's quarter turn lies in YZ; a G17 helix of P3 turns climbing 6 mm sweeps three whole
+    /// turns on its circle, climbing all the way, in three times one turn's time.
+    #[test]
+    fn arcs_in_every_plane_and_of_several_turns() {
+        let path = |g: &str| {
+            let w = waypoints(&format!("G1 F600\nM3\n{g}\n"), "p.nc", &standard()).unwrap();
+            w.iter().map(|p| p.position_mm).collect::<Vec<_>>()
+        };
+        for (g, below) in [("G18 G2 X10 I5", true), ("G18 G3 X10 I5", false)] {
+            let p = path(g);
+            assert_eq!(*p.last().unwrap(), [10.0, 0.0, 0.0], "{g}");
+            let mid = p[p.len() / 2];
+            assert!(p.iter().all(|q| q[1] == 0.0), "{g}: {p:?}");
+            let z = if below { -5.0 } else { 5.0 };
+            assert!((mid[2] - z).abs() < 0.1, "{g}: {mid:?}");
+            for q in &p {
+                let r = (q[0] - 5.0).hypot(q[2]);
+                assert!((r - 5.0).abs() < 1e-9, "{g}: {q:?}");
+            }
+        }
+        let p = path("G19 G3 Y5 Z5 J5");
+        assert!(p.iter().all(|q| q[0] == 0.0), "{p:?}");
+        assert_eq!(*p.last().unwrap(), [0.0, 5.0, 5.0]);
+        let one = waypoints("G1 F600\nG2 X0 Y0 I10 Z2\n", "p.nc", &standard()).unwrap();
+        let three = waypoints("G1 F600\nG2 X0 Y0 I10 Z6 P3\n", "p.nc", &standard()).unwrap();
+        // Every point on the circle, z climbing, the angle swept three whole turns clockwise.
+        let mut swept = 0.0;
+        for pair in three.windows(2) {
+            let [a, b] = [pair[0].position_mm, pair[1].position_mm];
+            assert!(((b[0] - 10.0).hypot(b[1]) - 10.0).abs() < 1e-9, "{b:?}");
+            assert!(b[2] > a[2], "{a:?} {b:?}");
+            let turn = (b[1]).atan2(b[0] - 10.0) - (a[1]).atan2(a[0] - 10.0);
+            swept += (turn + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+        }
+        assert!(
+            (swept + 3.0 * std::f64::consts::TAU).abs() < 1e-9,
+            "{swept}"
+        );
+        assert_eq!(three.last().unwrap().position_mm, [0.0, 0.0, 6.0]);
+        let (t1, t3) = (one.last().unwrap().t_s, three.last().unwrap().t_s);
+        assert!((t3 / t1 - 3.0).abs() < 1e-3, "{t1} {t3}");
     }
 
     /// G92 as programs use it: a printer's `G92 E0` moves nothing; `G92 X0 Y0` at (11, 20)
@@ -788,17 +897,18 @@ mod tests {
                 "line 2: an arc whose end lies 7.0000 mm",
             ),
             (
-                "G18\nG2 X10 Z0 I5 F600\n",
-                "line 2: an arc in the XZ or YZ plane",
-            ),
-            (
                 "G1 F600\nG2 X10 Y0 R2\n",
                 "expected a radius of at least half the chord",
             ),
             ("G1 F600\nG2 X0 Y0 R2\n", "a whole turn needs its centre"),
             ("G1 F600\nG2 X10 Y0\n", "neither its centre"),
             ("G1 F600\nG2 X10 Y0 I5 R5\n", "both its centre"),
-            ("G1 F600\nG2 X0 Y0 I5 P3\n", "P3 turns"),
+            (
+                "G1 F600\nG2 X0 Y0 I5 P1.5\n",
+                "P1.5 turns of an arc; expected a whole",
+            ),
+            ("G1 F600\nG2 X0 Y0 I5 P0\n", "P0 turns"),
+            ("G1 F600\nG18 G2 X10 Y0\n", "neither its centre (K, I)"),
             ("G1 X- F1\n", "line 1: X-; expected a finite number"),
             (
                 "G93 G1 X1 F60\n",
