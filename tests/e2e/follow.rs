@@ -285,6 +285,16 @@ fn follow_written(
     )
 }
 
+/// The probe file `lines` with each row after the header rewritten by `row` from its time and
+/// the rest of its cells.
+fn rows_rewritten(lines: &[String], row: impl Fn(f64, &str) -> String) -> Vec<String> {
+    let rewritten = |(k, l): (usize, &String)| match (k, l.split_once(',')) {
+        (0, _) | (_, None) => l.clone(),
+        (_, Some((t, rest))) => row(t.parse().unwrap(), rest),
+    };
+    lines.iter().enumerate().map(rewritten).collect()
+}
+
 /// A spiral laid in one pass (a helix R 15 mm, three revolutions at 8 mm/s, no travel and no
 /// pause) is followed revolution by revolution, as `dwell` judges it: a next-layer forecast and
 /// a judgement at the end of each revolution (the helix's last point starts a fourth), each
@@ -501,21 +511,14 @@ fn a_file_in_kelvin_read_as_celsius_and_a_logger_ahead_are_doubted_while_followe
         "deposit_mm = 2.0\ntime_offset_s = 20.0\n",
     );
     std::fs::write(&scenario, later).unwrap();
-    let kelvin: Vec<String> = lines
-        .iter()
-        .enumerate()
-        .map(|(k, l)| match k {
-            0 => "t_s,a,b,c".to_string(),
-            _ => {
-                let cells: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
-                let k: Vec<String> = cells[1..]
-                    .iter()
-                    .map(|c| format!("{:.2}", c + 273.15))
-                    .collect();
-                format!("{},{}", cells[0], k.join(","))
-            }
-        })
-        .collect();
+    let mut kelvin = rows_rewritten(&lines, |t, rest| {
+        let k: Vec<String> = rest
+            .split(',')
+            .map(|c| format!("{:.2}", c.parse::<f64>().unwrap() + 273.15))
+            .collect();
+        format!("{t},{}", k.join(","))
+    });
+    kelvin[0] = "t_s,a,b,c".into();
     let (ok, text) = follow_written(&scenario, &kelvin, false, Duration::from_secs(300));
     assert!(ok, "{text}");
     assert_eq!(
@@ -527,14 +530,7 @@ fn a_file_in_kelvin_read_as_celsius_and_a_logger_ahead_are_doubted_while_followe
 
     let dir = scratch("follow_logger_ahead");
     let (scenario, lines) = small_wall(&dir, "");
-    let ahead: Vec<String> = lines
-        .iter()
-        .enumerate()
-        .map(|(k, l)| match (k, l.split_once(',')) {
-            (0, _) | (_, None) => l.clone(),
-            (_, Some((t, rest))) => format!("{},{rest}", 200.0 + t.parse::<f64>().unwrap()),
-        })
-        .collect();
+    let ahead = rows_rewritten(&lines, |t, rest| format!("{},{rest}", 200.0 + t));
     let (ok, text) = follow_written(&scenario, &ahead, false, Duration::from_secs(300));
     assert!(ok, "{text}");
     let said = "the readings begin at 200 s, after the last deposit at 108.0 s";
@@ -549,16 +545,7 @@ fn a_file_in_kelvin_read_as_celsius_and_a_logger_ahead_are_doubted_while_followe
 fn a_reading_on_another_clock_is_refused() {
     let dir = scratch("follow_other_clock");
     let (scenario, lines) = small_wall(&dir, "");
-    let unix: Vec<String> = lines
-        .iter()
-        .enumerate()
-        .map(|(k, l)| match (k, l.split_once(',')) {
-            (0, _) | (_, None) => l.clone(),
-            (_, Some((t, rest))) => {
-                format!("{},{rest}", 1_767_225_600.0 + t.parse::<f64>().unwrap())
-            }
-        })
-        .collect();
+    let unix = rows_rewritten(&lines, |t, rest| format!("{},{rest}", 1_767_225_600.0 + t));
     let (ok, text) = follow_written(&scenario, &unix, false, Duration::from_secs(60));
     assert!(!ok, "{text}");
     assert!(
