@@ -1,16 +1,16 @@
 //! G-code as a machine runs it: moves (G0, G1) and arcs (G2, G3, by centre or radius, in the
 //! XY, ZX or YZ plane of G17-G19, of P turns, cut into chords within `ARC_SAGITTA_MM`), modal
-//! motion, absolute or relative
-//! coordinates (G90, G91) in mm or inches (G21, G20), feed F, dwells (G4 P in ms or S in s),
-//! and the codes that strike and stop the arc, named by the scenario (welding cells differ:
-//! ORNL's Wolf dialect uses M101 and M103). Comments (`;` and parentheses) are dropped; words
-//! may run together (`M5T2D1F0`); a line that is not G-code (Wolf's `BEGINNING LAYER`) is
-//! skipped; G92 sets the current point's coordinates (an offset from then on; G92.1 and G92.2
-//! take it away, G92.3 brings back the one G92.2 put aside; `G92 E0`, a printer's extruder
-//! reset, leaves X, Y and Z as they are); codes that would put the path after them in a frame
-//! this reader does not know or time it otherwise (G10, G28, G30, G53, G93, G95, a rotary axis
-//! turned) are refused; any other code is ignored. Time is distance over feed, or over `travel_mm_s` with the arc off where the
-//! controller moves faster than programmed.
+//! motion, absolute or relative coordinates (G90, G91) in mm or inches (G21, G20), feed F,
+//! dwells (G4 P in ms or S in s), and the codes that strike and stop the arc, named by the
+//! scenario (welding cells differ: ORNL's Wolf dialect uses M101 and M103). Comments (`;` and
+//! parentheses) are dropped; words may run together (`M5T2D1F0`); a line that is not G-code
+//! (Wolf's `BEGINNING LAYER`) is skipped; G92 sets the current point's coordinates (an offset
+//! from then on; G92.1 and G92.2 take it away, G92.3 brings back the one G92.2 put aside;
+//! `G92 E0`, a printer's extruder reset, leaves X, Y and Z as they are); codes that would put
+//! the path after them in a frame this reader does not know or time it otherwise (G10, G28,
+//! G30, G53, G93, G95, a rotary axis turned) are refused; any other code is ignored. Time is
+//! distance over feed, or over `travel_mm_s` with the arc off where the controller moves
+//! faster than programmed.
 
 use super::at_line;
 use super::toolpath::Waypoint;
@@ -529,8 +529,9 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1]).hypot(a[2] - b[2])
 }
 
-/// The centre of the arc of radius `r` from `from` to `to` in the XY plane: the arc of at most
-/// half a turn for r > 0, of more for r < 0 (the standard's R form).
+/// The centre of the arc of radius `r` from `from` to `to` in the plane (its coordinates, the
+/// first two of [`Plane::into_plane`]): the arc of at most half a turn for r > 0, of more for
+/// r < 0 (the standard's R form).
 fn centre_of_radius(
     from: [f64; 3],
     to: [f64; 3],

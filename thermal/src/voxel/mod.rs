@@ -2121,11 +2121,11 @@ impl HeatRun for VoxelRun {
         self.model.mean_t(&self.model.beneath(&self.deps, i))
     }
 
-    /// The mean of deposit i's own voxels; a deposit too thin to fill a cell of its own (a
-    /// skeleton's drop where branches meet, 0.4 mm on 1 mm cells) has its metal in the cells
+    /// The mean of deposit i's own voxels; a deposit that switched on no cell of its own (a
+    /// bead thinner than the cells, laid where the metal already is) has its metal in the cells
     /// where it lies, and reads the one nearest the middle of its segment, else the metal of
     /// the last deposit before it that laid any (as the snapshots and peaks take it): it read
-    /// ambient, and such a drop was taken for solid as the arc left it.
+    /// ambient, so that a skeleton's drop so laid would be taken for solid as its arc stopped.
     fn temperature_of(&self, i: usize) -> f64 {
         let m = &self.model;
         if !m.laid[i].is_empty() {
