@@ -315,3 +315,48 @@ fn report_renders_in_a_browser() {
     // A page of four plots is far from blank: a blank 1100 × 2600 page compresses to a few kB.
     assert!(png.len() > 100_000, "screenshot of {} bytes", png.len());
 }
+
+/// A plan whose points ask for deposits outside the process window away from its closing zone
+/// is said on stderr and in thermal.json (`plan_infeasible`): the R 8 quarter torus, whose
+/// layers cross its converging generators (docs/PHYSICS.md "Eq.6 on a bent tube"). An R 20
+/// hemisphere, whose two violations lie in its closing zone (as a closed part's last
+/// revolutions have them), is not.
+#[test]
+fn a_plan_outside_the_window_away_from_its_closing_zone_is_said() {
+    let off = "[output]\nrerun = false\nmcap = false\nhdf5 = false\nplots = false\n";
+    let run = |name: &str, part: &str| {
+        let dir = scratch(name);
+        std::fs::write(dir.join("s.toml"), format!("{part}{off}")).unwrap();
+        let out = dir.join("out");
+        let o = waamtwin(&[
+            "simulate",
+            dir.join("s.toml").to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "{err}");
+        let kinds: Vec<String> = json(&out.join("thermal.json"))["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["kind"].as_str().unwrap().to_string())
+            .collect();
+        let violations = json(&out.join("plan.json"))["violations_total"]
+            .as_u64()
+            .unwrap();
+        (err, kinds, violations)
+    };
+    let torus = "[part]\nshape = \"quarter_torus\"\nbend_radius_mm = 100.0\n\
+                 tube_radius_mm = 8.0\nedge_mm = 1.0\n";
+    let (err, kinds, violations) = run("plan_infeasible_torus", torus);
+    assert_eq!(kinds, ["plan_infeasible"]);
+    let said = format!("warning: the plan is not feasible (CTPP Eq.6): {violations} of its");
+    assert!(err.contains(&said), "{err}");
+    let dome = "[part]\nshape = \"hemisphere\"\nradius_mm = 20.0\nedge_mm = 2.5\n\
+                [planner]\nn_points = 40\n";
+    let (err, kinds, violations) = run("plan_infeasible_dome", dome);
+    assert!(violations > 0, "no violation to keep quiet about");
+    assert!(kinds.is_empty(), "{kinds:?}");
+    assert!(!err.contains("not feasible"), "{err}");
+}

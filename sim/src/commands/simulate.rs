@@ -193,9 +193,11 @@ pub fn write_thermal(
     };
     let metal = resolution::metal(r, b.deposits());
     let first = sim.first_risk(&b.criteria);
+    let window_mm = [params.process.deposit_min_m, params.process.deposit_max_m].map(|m| m * 1e3);
     let after: Vec<resolution::Warning> = metal
         .and_then(resolution::Metal::warning)
         .into_iter()
+        .chain(resolution::infeasible(pl, &zone, window_mm))
         .collect();
     let before = resolution::before_run(&params.thermal, b.deposits(), "thermal.voxel_mm");
     let warnings = warnings_json(&before, &after);

@@ -20,10 +20,49 @@ use thermal::schedule::{Deposit, arc_lengths, bead_volume, segment_start};
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
     /// The function that found it: `coarse_deposits`, `coarse_voxels`, `floating_path`,
-    /// `metal_off`, or of a replay's readings ([`crate::pipeline::replay::doubts`])
+    /// `metal_off`, `plan_infeasible`, or of a replay's readings ([`crate::pipeline::replay::doubts`])
     /// `probe_clock`, `probe_empty`, `probe_unread` or `probe_unit`.
     pub kind: &'static str,
     pub line: String,
+}
+
+/// A plan whose points ask for deposits outside the process window (CTPP Eq.6) away from its
+/// closing zone (`zone`, per point), where the wire feed cannot lay the layer the spiral
+/// expects whatever the heat does (`plan_infeasible`): report.html said it, the terminal and
+/// thermal.json did not. In the closing zone the revolutions cross converging generators and
+/// such points are expected (the hemisphere's last revolutions): not said.
+pub fn infeasible(
+    plan: &planner::plan::Plan,
+    zone: &[bool],
+    window_mm: [f64; 2],
+) -> Option<Warning> {
+    let away: Vec<&planner::orientation::Violation> = plan
+        .violations
+        .iter()
+        .filter(|v| !zone.get(v.point).copied().unwrap_or(false))
+        .collect();
+    let first = away.first()?;
+    let (lo, hi) = away
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v.deposit_mm), b.max(v.deposit_mm))
+        });
+    Some(Warning {
+        kind: "plan_infeasible",
+        line: format!(
+            "warning: the plan is not feasible (CTPP Eq.6): {} of its {} path points away from \
+             the closing zone, the first at point {} (layer {}), ask for deposits of \
+             {lo:.2}–{hi:.2} mm, outside the process window {:.2}–{:.2} mm, where the wire feed \
+             cannot lay what the spiral asks (plan.json `violations`, report.html); widen the \
+             window ([process] deposit_min_mm, deposit_max_mm) or change the part",
+            away.len(),
+            plan.points.len(),
+            first.point,
+            first.layer,
+            window_mm[0],
+            window_mm[1]
+        ),
+    })
 }
 
 /// The warnings a run of `deps` on the model `t` sets up earns before it starts: the thin wall's
