@@ -74,8 +74,7 @@ fn a_killed_study_resumes_and_shards_merge_into_the_same_summary() {
     // Each row names what its first point at risk breaks, where it has one; the thin wall's
     // cases here earn no grid warning, and their plan (one plan: the sweep moves none of its
     // keys), not feasible away from any closing zone (a 14 mm cylinder's last two revolutions,
-    // 1.52–2.50 mm where the spiral meets its top), earns
-    // `plan_infeasible` in each.
+    // 1.52–2.50 mm where the spiral meets its top), earns `plan_infeasible` in each.
     let feasible = header.iter().position(|h| *h == "feasible").unwrap();
     for row in local.lines().skip(1) {
         let f: Vec<&str> = row.split(',').collect();
