@@ -261,7 +261,9 @@ fn deposits(area: &Area, scene: &Scene) -> Drawn {
         .chain(&h_planar)
         .map(|p| p.1)
         .fold(0.0, f64::max)
-        * 1.1;
+        // Headroom for the legend's three lines across the top: at 1.1 a straight wall's
+        // planar bar (every point one height) ran up under it.
+        * 1.3;
     let mut chart = ChartBuilder::on(area)
         .caption(
             "deposit height: CTPP (one continuous spiral) against planar 2.5D slicing",
