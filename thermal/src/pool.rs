@@ -24,13 +24,13 @@ pub(crate) struct Sample {
 /// The molten bead behind the torch: its length (m) and volume (m³), from `samples` taken from
 /// the torch backwards along the bead. Zero if the first sample with a temperature is solid;
 /// the whole of the samples if none is (the bead's start bounds the pool). A sample with no
-/// temperature of its own (a deposit of the voxel model that laid no cell: its stretch of bead
-/// lies between the centres of cells other deposits laid) is a stretch between the samples
-/// around it, the temperature linear across it as between any two centres: molten where it lies
-/// before the last molten sample, and cut where the solidus crosses it. Before, every such
-/// stretch ahead of the first solid sample was counted molten whole, which read the voxel
-/// model's pool longer the coarser its cells against its deposits (docs/PHYSICS.md "The voxel
-/// grid against the layer").
+/// temperature of its own (the voxel model's deposits that laid no cell where no cell lies near
+/// their beads either; those with one read it) is a stretch between the samples around it, the
+/// temperature linear across it as between any two centres: molten where it lies before the
+/// last molten sample, and cut where the solidus crosses it. Before, every such stretch ahead
+/// of the first solid sample was counted molten whole, which read the voxel model's pool longer
+/// the coarser its cells against its deposits (docs/PHYSICS.md "The voxel grid against the
+/// layer").
 pub(crate) fn behind(samples: impl IntoIterator<Item = Sample>, solidus: f64) -> (f64, f64) {
     let (mut length, mut volume) = (0.0, 0.0);
     // The last molten sample with a temperature of its own, and the stretch without one since.

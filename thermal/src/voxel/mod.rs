@@ -1735,12 +1735,16 @@ impl VoxelModel {
             0 => 0.0,
             _ => norm(sub(deps[j].position, deps[j - 1].position)),
         };
-        // A deposit that added no voxel (its metal was there) has no temperature of its own.
-        // A run of such deposits longer than `SHORT` is one sample, its length read off
-        // `along`: a path cut into deposits far finer than the voxels (0.002 mm on 2 mm) walked
-        // a thousand of them a voxel, the walk 51 % of such a replay. Shorter runs go a deposit
-        // at a time, their lengths summed in the order they were, to the bit.
-        const SHORT: usize = 16;
+        // A deposit that added no voxel has no cells of its own: its bead lies in cells that
+        // other deposits laid (a layer under a cell's height lays none for a stretch, the
+        // cells under it those of the revolution before, which its arc heats). A run of such
+        // deposits is read a cell's length of path at a time (found in `along`, so that a path
+        // cut into deposits far finer than the voxels, 0.002 mm on 2 mm, does not walk a
+        // thousand deposits a cell), each piece at the cell nearest the middle of its beads.
+        // Read as a gap between the samples around it, a run of five 5.2 mm deposits on a
+        // cylinder of 1.9 mm layers on 2 mm cells made an 88 mm pool (docs/PHYSICS.md "A pool
+        // across deposits that laid no cell").
+        let dx = self.settings.size;
         // Deposits j down to 0 are still to walk; filled[..k] are the ones at or before j.
         let (mut j, mut k) = (
             i as isize,
@@ -1757,18 +1761,20 @@ impl VoxelModel {
                     volume: laid.len() as f64 * cell,
                 });
             }
-            // The run of empty deposits from `at` down to `from`.
+            // The run of empty deposits from `at` down to `from`; this piece from `q` to `at`,
+            // a cell's length of path (or one deposit, where that is longer).
             let from = k.checked_sub(1).map_or(0, |k| self.filled[k] as usize + 1);
-            let length = if at + 1 - from <= SHORT {
-                j -= 1;
-                step(at)
-            } else {
-                j = from as isize - 1;
-                along[at] - from.checked_sub(1).map_or(0.0, |f| along[f])
-            };
+            let q = (from + along[from..=at].partition_point(|&x| x < along[at] - dx)).min(at);
+            let before = q.checked_sub(1).map_or(0.0, |b| along[b]);
+            j = q as isize - 1;
+            let m = (q + at) / 2;
+            let d = &deps[m];
+            let (a, b) = (segment_start(deps, m), d.position);
+            let middle: [f64; 3] = std::array::from_fn(|c| 0.5 * (a[c] + b[c]));
+            let bead = sub(middle, scale(d.axis, self.sink[m] + 0.5 * d.height));
             Some(crate::pool::Sample {
-                t: None,
-                length,
+                t: self.voxel_near(bead).map(|v| self.temperature(v)),
+                length: along[at] - before,
                 volume: 0.0,
             })
         });
@@ -2582,6 +2588,41 @@ mod tests {
         assert!(jitter < 5.0, "{jitter} K between neighbours");
     }
 
+    /// A ring of beads 1.8 mm high climbing 1.93 mm a revolution on 2 mm cells (R 100 in 120
+    /// chords of 5.2 mm: the library cylinder's) lays no cell for a stretch of deposits now and
+    /// then (here its whole fifth revolution), their beads in the cells of the revolution
+    /// beneath. The pool behind the arc reads those cells, as it reads the cells of deposits
+    /// that laid some; read as a gap between the samples around it, such a run made the pool
+    /// 88 mm long on the cylinder. Measured over eight revolutions: the longest pool 637 mm
+    /// before (the whole empty revolution), 18.4 mm now (the first deposit after it, whose
+    /// cells take the revolution's metal at once); the median 7.7 and 7.9 mm.
+    #[test]
+    fn a_pool_reads_the_cells_under_deposits_that_laid_none() {
+        let (_, mut settings) = three_revolutions(240.0);
+        settings.coarse_plate = true;
+        // The beads 1.8 mm high (Eq.7's), the layers 1.93 mm apart (the plan's deposit).
+        let mut deps = helix(0.1, 120, 8, 1.93e-3, 5e-3, 10e-3, 1700.0);
+        deps.iter_mut().for_each(|d| d.height = 1.8e-3);
+        let mut run = VoxelRun::new(VoxelModel::new(&deps, &settings).unwrap(), &deps).unwrap();
+        for i in 0..deps.len() {
+            run.deposit(i, 0.0).unwrap();
+        }
+        let empty = run.model().laid.iter().filter(|l| l.is_empty()).count();
+        let pools: Vec<f64> = run.points().iter().map(|p| p.pool_length).collect();
+        let longest = pools.iter().fold(0.0f64, |a, &b| a.max(b));
+        let mut sorted = pools.clone();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted[sorted.len() / 2];
+        eprintln!(
+            "{empty} deposits laid no cell; pool median {:.1} mm, longest {:.1} mm",
+            median * 1e3,
+            longest * 1e3
+        );
+        assert!(empty > 10, "{empty}");
+        assert!(median > 4e-3, "the arc makes a pool: {median}");
+        assert!(longest < 25e-3, "{longest}");
+    }
+
     /// A strut of `width`: a torch climbing along its own vertical axis from 4 mm over the
     /// plate's centre to 24 mm, 4 mm a deposit and each 4 mm high (the first at its foot, with
     /// no segment of its own).
@@ -2650,22 +2691,31 @@ mod tests {
     }
 
     /// The melt pool's walk back over a path cut finer than its voxels, runs of deposits that
-    /// laid no metal of their own taken whole, gives the pool the walk a deposit at a time
-    /// gives: to the bit where every such run is short (1 mm deposits on 2 mm voxels), to
-    /// rounding where they are long (0.05 mm, forty to a voxel, and a stretch of each).
+    /// laid no metal of their own read a cell's length at a time, gives the pool the walk a
+    /// deposit at a time gives (each empty one reading the cell at its bead) within a cell: 1
+    /// mm deposits on 2 mm voxels, 0.05 mm (forty to a voxel), and a stretch of each.
     #[test]
-    fn the_pools_walk_skips_what_laid_no_metal() {
+    fn the_pools_walk_reads_what_laid_no_metal_a_cell_at_a_time() {
         let (_, settings) = three_revolutions(60.0);
-        // The old walk, every deposit a sample.
+        // The walk a deposit at a time.
         let every = |m: &VoxelModel, deps: &[Deposit], i: usize| {
-            let samples = (0..=i).rev().map(|j| crate::pool::Sample {
-                t: (!m.laid[j].is_empty()).then(|| m.mean_t(&m.laid[j])),
-                length: if j == 0 {
-                    0.0
-                } else {
-                    norm(sub(deps[j].position, deps[j - 1].position))
-                },
-                volume: m.laid[j].len() as f64 * m.settings.size.powi(3),
+            let samples = (0..=i).rev().map(|j| {
+                let d = &deps[j];
+                let (a, b) = (segment_start(deps, j), d.position);
+                let middle: [f64; 3] = std::array::from_fn(|c| 0.5 * (a[c] + b[c]));
+                let bead = sub(middle, scale(d.axis, m.sink[j] + 0.5 * d.height));
+                crate::pool::Sample {
+                    t: match m.laid[j].is_empty() {
+                        true => m.voxel_near(bead).map(|v| m.temperature(v)),
+                        false => Some(m.mean_t(&m.laid[j])),
+                    },
+                    length: if j == 0 {
+                        0.0
+                    } else {
+                        norm(sub(deps[j].position, deps[j - 1].position))
+                    },
+                    volume: m.laid[j].len() as f64 * m.settings.size.powi(3),
+                }
             });
             let (length, volume) = crate::pool::behind(samples, m.settings.material.solidus);
             (length, (3.0 * volume / (2.0 * std::f64::consts::PI)).cbrt())
@@ -2677,10 +2727,10 @@ mod tests {
                 0.05e-3
             }
         };
-        for (deps, exact) in [
-            (track(40, |_| 1e-3), true),
-            (track(800, |_| 0.05e-3), false),
-            (track(1000, fine), false),
+        for deps in [
+            track(40, |_| 1e-3),
+            track(800, |_| 0.05e-3),
+            track(1000, fine),
         ] {
             let mut m = VoxelModel::new(&deps, &settings).unwrap();
             m.lay_all(&deps);
@@ -2697,17 +2747,7 @@ mod tests {
             assert!(skipped > deps.len() / 3, "{skipped} of {}", deps.len());
             for i in 0..deps.len() {
                 let (a, b) = (m.pool(&deps, &along, i), every(&m, &deps, i));
-                if exact {
-                    assert_eq!(
-                        (a.0.to_bits(), a.1.to_bits()),
-                        (b.0.to_bits(), b.1.to_bits())
-                    );
-                } else {
-                    assert!(
-                        (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12,
-                        "{i}: {a:?} {b:?}"
-                    );
-                }
+                assert!((a.0 - b.0).abs() <= 2e-3, "{i}: {a:?} {b:?}");
             }
             let (length, _) = m.pool(&deps, &along, deps.len() - 1);
             assert!((length - 12e-3).abs() < 2e-3, "{length}");
