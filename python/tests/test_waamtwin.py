@@ -49,6 +49,15 @@ class SamePlan(unittest.TestCase):
             for name in theirs:
                 if name not in ("manifest.json",):
                     self.assertEqual(Path(w, name).read_bytes(), Path(d, name).read_bytes(), name)
+            # The G-code's line, its table's fastest turns in it, is the command's; a robot's
+            # format has no table to limit.
+            mine = waamtwin.export(r, "gcode", rotary_rpm_max=100.0)
+            done = command("export", d, "--format", "gcode", "--rotary-rpm-max", "100")
+            self.assertEqual(done.returncode, 0, done.stderr)
+            self.assertEqual(mine.split(": ", 1)[1], done.stdout.strip().split(": ", 1)[1])
+            self.assertIn("rpm on C", mine)
+            with self.assertRaises(waamtwin.InputError):
+                waamtwin.export(r, "krl", rotary_rpm_max=10)
 
     def test_a_dict_scenario_with_overrides_runs_as_its_toml(self):
         with tempfile.TemporaryDirectory() as d:

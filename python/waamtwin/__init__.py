@@ -339,16 +339,24 @@ def export(
     part_offset_mm=None,
     tilt_limits_deg=None,
     min_move_mm=None,
+    rotary_rpm_max=None,
+    tilt_rpm_max=None,
 ) -> str:
     """The machine program of a planned run (a :class:`Result` of plan, simulate or dwell, or
     its folder): program.json, .mod (ABB RAPID), .src (KUKA KRL) or .nc (G-code), written
     beside its path.csv (``waamtwin export``); returns the command's line. ``format``: "json",
     "rapid", "krl" or "gcode"; ``min_move_mm``: the shortest move kept (default 0.1; 0 keeps
-    every path point)."""
+    every path point); ``rotary_rpm_max``, ``tilt_rpm_max``: G-code's table's top speeds, rpm
+    (moves that ask more are warned of on stderr)."""
     folder = run.path_of("") if isinstance(run, Result) else Path(run)
     flags = ["--format", format]
-    if min_move_mm is not None:
-        flags += ["--min-move-mm", str(float(min_move_mm))]
+    for flag, value in (
+        ("--min-move-mm", min_move_mm),
+        ("--rotary-rpm-max", rotary_rpm_max),
+        ("--tilt-rpm-max", tilt_rpm_max),
+    ):
+        if value is not None:
+            flags += [flag, str(float(value))]
     for key, value in (
         ("pivot_mm", pivot_mm),
         ("part_offset_mm", part_offset_mm),

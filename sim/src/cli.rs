@@ -155,6 +155,13 @@ pub enum Command {
         /// waits before it); 0 keeps every point.
         #[arg(long, default_value_t = crate::commands::export::MIN_MOVE_MM)]
         min_move_mm: f64,
+        /// G-code: the rotary axis C's top speed, rpm; moves that ask more are warned of
+        /// (`table_speed`), with the torch's speed where the controller holds C to it.
+        #[arg(long, allow_hyphen_values = true)]
+        rotary_rpm_max: Option<f64>,
+        /// G-code: the tilt A's top speed, rpm (as --rotary-rpm-max).
+        #[arg(long, allow_hyphen_values = true)]
+        tilt_rpm_max: Option<f64>,
     },
     /// Skeleton arc AM of an OBJ skeleton, drop by drop, closed and open loop: drops.csv,
     /// loops.csv, path.csv, skeleton.json, solidification.png, standoff.png.

@@ -116,9 +116,12 @@ pub fn execute(cli: cli::Cli) -> Result<String> {
             part_offset_mm,
             tilt_limits_deg,
             min_move_mm,
+            rotary_rpm_max,
+            tilt_rpm_max,
         } => {
             let table = commands::export::table(&pivot_mm, &part_offset_mm, &tilt_limits_deg)?;
-            commands::export::run(&dir, format, &table, min_move_mm)
+            let speed = commands::export::table_speed(rotary_rpm_max, tilt_rpm_max, format)?;
+            commands::export::run(&dir, format, &table, speed, min_move_mm)
         }
         Command::Skeleton { scenario, out } => commands::skeleton::run(&scenario, &out),
         Command::Demo { out } => {

@@ -224,6 +224,59 @@ fn gcode_parses_back(out: &std::path::Path, expected: &[Frame], beads: usize) {
     assert!(g.contains("G93"), "inverse-time feed");
     assert_eq!(g.lines().filter(|l| *l == "M3").count(), beads);
     assert_eq!(g.lines().filter(|l| *l == "M5").count(), beads);
+    // The table's fastest turn on C, as the command says it, is the program's own: ΔC × F
+    // (inverse time, 1/min) over the moves, in rpm.
+    let word = |l: &str, w: char| -> f64 {
+        let at = l.find(&format!(" {w}")).unwrap() + 2;
+        l[at..].split(' ').next().unwrap().parse().unwrap()
+    };
+    // (A move that goes nowhere has F at its 1e9 floor and no pace of its own.)
+    let fastest_c = moves
+        .windows(2)
+        .filter(|p| word(p[1], 'F') < 1e8)
+        .map(|p| (word(p[1], 'C') - word(p[0], 'C')).abs() * word(p[1], 'F') / 360.0)
+        .fold(0.0, f64::max);
+    let line = String::from_utf8_lossy(&o.stdout);
+    let said: f64 = line
+        .split("the table turning up to ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(
+        (said - fastest_c).abs() <= 0.05 + 1e-3 * fastest_c,
+        "{said} against {fastest_c}"
+    );
+    // Held to a tenth of it, the moves over are said, with the torch's pace there.
+    assert!(fastest_c > 0.0, "the table turns");
+    let limit = format!("{}", fastest_c / 10.0);
+    let o = waamtwin(&[
+        "export",
+        out.to_str().unwrap(),
+        "--format",
+        "gcode",
+        "--min-move-mm",
+        "0",
+        "--rotary-rpm-max",
+        &limit,
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains("warning: table_speed: ") && e.contains("mm/s (planned"),
+        "{e}"
+    );
+    // A robot has no table.
+    let o = waamtwin(&[
+        "export",
+        out.to_str().unwrap(),
+        "--format",
+        "krl",
+        "--rotary-rpm-max",
+        "10",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--rotary-rpm-max 10"));
 }
 
 /// A path.csv that is not one: exit 2 naming the file and line, and no program written.

@@ -28,15 +28,42 @@ pub enum Format {
     Gcode,
 }
 
-/// The program of `moves` in `format`: its file name and text. G-code needs the table's
-/// kinematics, and refuses a tool axis the table cannot reach.
-pub fn program(moves: &[Move], format: Format, table: &Table) -> Result<(&'static str, String)> {
-    Ok(match format {
-        Format::Json => ("program.json", json_program(moves)),
-        Format::Rapid => ("program.mod", rapid(moves)),
-        Format::Krl => ("program.src", krl(moves)),
-        Format::Gcode => ("program.nc", gcode(moves, table)?),
-    })
+/// A machine program: its file name, its text, and how fast a tilt-rotary table turns on each
+/// of its moves (G-code's alone; empty for the robots' formats).
+#[derive(Debug, Clone)]
+pub struct Program {
+    pub name: &'static str,
+    pub text: String,
+    pub turns: Vec<Turn>,
+}
+
+/// How fast the table turns on one G-code move: the rotary axis C and the tilt A, degrees per
+/// second, at the travel speed the move was planned at (inverse-time feed holds the torch to it
+/// over the part, so the axes turn as fast as the part's curvature under the torch asks: round
+/// a dome's closing point, where the tool lies level, C turns a revolution for each small
+/// revolution of the path).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Turn {
+    /// The move's path point (path.csv's `i`).
+    pub point: usize,
+    pub c_deg_s: f64,
+    pub a_deg_s: f64,
+    pub travel_mm_s: f64,
+}
+
+/// The program of `moves` in `format`. G-code needs the table's kinematics, and refuses a tool
+/// axis the table cannot reach.
+pub fn program(moves: &[Move], format: Format, table: &Table) -> Result<Program> {
+    let (name, text, turns) = match format {
+        Format::Json => ("program.json", json_program(moves), Vec::new()),
+        Format::Rapid => ("program.mod", rapid(moves), Vec::new()),
+        Format::Krl => ("program.src", krl(moves), Vec::new()),
+        Format::Gcode => {
+            let (text, turns) = gcode(moves, table)?;
+            ("program.nc", text, turns)
+        }
+    };
+    Ok(Program { name, text, turns })
 }
 
 /// The arc on a move.
@@ -349,16 +376,18 @@ fn krl(moves: &[Move]) -> String {
 /// and the table's A, C (continuous, never a turn back round), in inverse-time feed (G93: F is
 /// 1/minutes for the move, so the torch keeps the travel speed over the part however the table
 /// turns); the arc M3/M5, the wire feed (m/min) as M68 E0 Q, dwells G4 P (seconds). A tool axis
-/// the table cannot reach is refused, naming the point and the tilt.
-fn gcode(moves: &[Move], table: &Table) -> Result<String> {
+/// the table cannot reach is refused, naming the point and the tilt. With it, how fast the
+/// table turns on each move that goes somewhere ([`Turn`]).
+fn gcode(moves: &[Move], table: &Table) -> Result<(String, Vec<Turn>)> {
     let mut s = format!(
         "; waamtwin: 5-axis G-code, tilt-rotary table (A about X, C about the table's axis), torch along -Z\n\
          ; pivot_mm = {:?}, part_offset_mm = {:?}, A within [{}, {}] degrees\n\
          G21 G90 G17\n",
         table.pivot_mm, table.part_offset_mm, table.tilt_min_deg, table.tilt_max_deg
     );
-    let mut c = 0.0;
+    let (mut c, mut a) = (0.0, 0.0);
     let (mut wfs, mut on) = (f64::NAN, false);
+    let mut turns = Vec::new();
     for (i, m) in moves.iter().enumerate() {
         let ax = table
             .axes(&m.frame.position, &m.frame.tool(), c)
@@ -368,7 +397,8 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
                     m.point, e.tilt_deg, table.tilt_min_deg, table.tilt_max_deg
                 ))
             })?;
-        c = ax.c;
+        let (dc, da) = ((ax.c - c).abs(), (ax.a - a).abs());
+        (c, a) = (ax.c, ax.a);
         if m.arc != Arc::On && std::mem::take(&mut on) {
             s.push_str("M5\n");
         }
@@ -393,6 +423,16 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
             let length = (m.frame.position - moves[i - 1].frame.position).norm();
             let minutes = (length / m.travel_mm_s / 60.0).max(1e-9);
             let _ = writeln!(s, "G1 {axes} F{:.6}", 1.0 / minutes);
+            // A move that goes nowhere (kept with --min-move-mm 0) has no pace of its own.
+            if length > 1e-9 {
+                let seconds = 60.0 * minutes;
+                turns.push(Turn {
+                    point: m.point,
+                    c_deg_s: dc / seconds,
+                    a_deg_s: da / seconds,
+                    travel_mm_s: m.travel_mm_s,
+                });
+            }
         }
         if m.arc == Arc::StruckHere {
             s.push_str("M3\n");
@@ -407,7 +447,7 @@ fn gcode(moves: &[Move], table: &Table) -> Result<String> {
         s.push_str("M5\n");
     }
     s.push_str("G94\nM2\n");
-    Ok(s)
+    Ok((s, turns))
 }
 
 #[cfg(test)]
