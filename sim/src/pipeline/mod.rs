@@ -124,6 +124,16 @@ pub enum Error {
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            // A part too short for the start-up is most often a mesh drawn in inches or
+            // centimetres, read as millimetres (2.7 units tall, a 69 mm head in inches).
+            Error::Plan(
+                e @ planner::plan::PlanError::Spiral(planner::spiral::SpiralError::TooShort {
+                    ..
+                }),
+            ) => write!(
+                f,
+                "plan: {e}; expected a part taller than that, in mm (a mesh file drawn in other units takes [part] mesh_unit = \"m\", \"cm\" or \"in\")"
+            ),
             Error::Plan(e) => write!(f, "plan: {e}"),
             Error::Unseated(e) => e.fmt(f),
             Error::Invalid(e) => write!(f, "{e}"),
@@ -599,6 +609,33 @@ pub fn frame_times(build_s: f64, n_points: usize, frames: usize) -> Vec<f64> {
 
 #[cfg(test)]
 mod tests {
+    use planner::plan::PlanError;
+    use planner::spiral::SpiralError;
+
+    /// A part too short for the start-up names the units a mesh file may be drawn in; other
+    /// verdicts of the planner do not.
+    #[test]
+    fn a_part_too_short_for_the_start_up_names_the_mesh_units() {
+        let short = super::Error::Plan(PlanError::Spiral(SpiralError::TooShort {
+            shortest_mm: 5.68,
+            start_up_mm: 10.98,
+        }));
+        let said = short.to_string();
+        assert!(
+            said.starts_with("plan: the shortest generator (5.68 mm)"),
+            "{said}"
+        );
+        assert!(
+            said.ends_with("mesh_unit = \"m\", \"cm\" or \"in\")"),
+            "{said}"
+        );
+        let other = super::Error::Plan(PlanError::Spiral(SpiralError::NoModulation {
+            h_min: 2.0,
+            h_max: 2.0,
+        }));
+        assert!(!other.to_string().contains("mesh_unit"));
+    }
+
     #[test]
     fn frames_are_bounded_and_end_at_the_build() {
         let t = super::frame_times(100.0, 10, 50);
