@@ -158,16 +158,18 @@ fn a_bad_toolpath_line_is_named() {
 /// warning); the same track with its z half a bead low (a logger's offset) lays none of it,
 /// and the replay says so on stderr with the two volumes and the keys to look at, instead of
 /// heating a part that is not there, and replay.json's `warnings` holds it. Logged 500 mm up
-/// (the machine's frame), it is laid on the plate and said, with the offset.
+/// (the machine's frame), it is laid on the plate and said, with the offset. Logged with its
+/// end at 400 instead of 4 (a clock a hundred times slow; a logger's milliseconds are a
+/// thousand), its arc's 0.1 mm/s is said (`slow_arc`), with the pace a thousand times that.
 #[test]
 fn a_track_laid_inside_the_plate_is_named() {
     let dir = scratch("replay_inside_plate");
     std::fs::create_dir_all(&dir).unwrap();
-    let track = |name: &str, z_mm: f64| {
+    let timed = |name: &str, z_mm: f64, end: f64| {
         let path = dir.join(format!("{name}.csv"));
         std::fs::write(
             &path,
-            format!("t_s,x_mm,y_mm,z_mm,on\n0,-20,0,{z_mm},0\n4,20,0,{z_mm},1\n"),
+            format!("t_s,x_mm,y_mm,z_mm,on\n0,-20,0,{z_mm},0\n{end},20,0,{z_mm},1\n"),
         )
         .unwrap();
         let scenario = dir.join(format!("{name}.toml"));
@@ -196,6 +198,7 @@ fn a_track_laid_inside_the_plate_is_named() {
             .collect();
         (laid, beads, err, kinds)
     };
+    let track = |name: &str, z_mm: f64| timed(name, z_mm, 4.0);
     // 40 mm × 4 mm × 2 mm of bead.
     let (laid, beads, err, kinds) = track("on_top", 2.0);
     assert_eq!(beads, 320.0);
@@ -217,6 +220,12 @@ fn a_track_laid_inside_the_plate_is_named() {
         assert!(err.contains(needle), "{needle}: {err}");
     }
     assert_eq!(kinds, ["floating_path"]);
+    let (laid, _, err, kinds) = timed("slow_clock", 2.0, 400.0);
+    assert!(laid > 0.0);
+    for needle in ["a mean 0.1000 mm/s", "(100.00 mm/s at a", "milliseconds"] {
+        assert!(err.contains(needle), "{needle}: {err}");
+    }
+    assert_eq!(kinds, ["slow_arc"]);
 }
 
 /// The GAMMA wall calibrated on the first half of its build and judged on the second, as

@@ -84,7 +84,66 @@ pub fn before_run(t: &ThermalSettings, deps: &[Deposit], key: &str) -> Vec<Warni
         kind: "floating_path",
         line: f.line(),
     });
-    grid.into_iter().chain(path).collect()
+    let pace = slow_arc(deps).map(|s| Warning {
+        kind: "slow_arc",
+        line: s.line(),
+    });
+    grid.into_iter().chain(path).chain(pace).collect()
+}
+
+/// The arc's travel along the beads, over all of them: how far and in how long.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SlowArc {
+    pub length_m: f64,
+    pub arc_s: f64,
+}
+
+/// Under this mean speed (m/s) the arc's travel is reported: a WAAM or DED torch lays its beads
+/// at 2–20 mm/s, a slow TIG one at 1 mm/s; a logged time column in milliseconds, read as
+/// seconds, makes a 5 mm/s path 0.005 mm/s and its build a thousand times as long, which the
+/// clock-bound checks (1e7 s) let through.
+const SLOW_ARC_M_S: f64 = 0.5e-3;
+/// Beads shorter than this in all are not judged: a skeleton's drops, a spot.
+const SLOW_ARC_MIN_M: f64 = 10e-3;
+
+impl SlowArc {
+    pub fn speed_mm_s(&self) -> f64 {
+        self.length_m / self.arc_s * 1e3
+    }
+
+    /// A warning for the terminal: the speed, and the clock a thousand times too slow.
+    pub fn line(&self) -> String {
+        format!(
+            "warning: the arc travels its {:.1} mm of bead in {:.0} s, a mean {:.4} mm/s, \
+             where a WAAM torch runs 2-20 mm/s: the run heats the part as that slow a torch \
+             would. A time column in milliseconds read as seconds does this ({:.2} mm/s at a \
+             thousand times the pace): the toolpath's times are seconds",
+            self.length_m * 1e3,
+            self.arc_s,
+            self.speed_mm_s(),
+            self.speed_mm_s() * 1e3
+        )
+    }
+}
+
+/// The arc's mean speed along the beads of `deps` (their segments with the arc on; travels
+/// between tracks, drops, an arc held still and a torch climbing its own axis left out), if under
+/// [`SLOW_ARC_M_S`] over at least [`SLOW_ARC_MIN_M`] of bead.
+pub fn slow_arc(deps: &[Deposit]) -> Option<SlowArc> {
+    let (mut length_m, mut arc_s) = (0.0, 0.0);
+    for (i, d) in deps.iter().enumerate() {
+        let from = segment_start(deps, i);
+        let seg: [f64; 3] = std::array::from_fn(|k| d.position[k] - from[k]);
+        let len = seg.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let along: f64 = (0..3).map(|k| seg[k] * d.axis[k]).sum();
+        if len <= 1e-9 || d.drop.is_some() || d.arc_time <= 0.0 || along.abs() > 0.9 * len {
+            continue;
+        }
+        length_m += len;
+        arc_s += d.arc_time;
+    }
+    (length_m >= SLOW_ARC_MIN_M && length_m < SLOW_ARC_M_S * arc_s)
+        .then_some(SlowArc { length_m, arc_s })
 }
 
 /// Deposits laid on nothing but the plate with their path points far above its top (z = 0).
@@ -338,7 +397,7 @@ pub fn metal(result: &RunResult, deps: &[Deposit]) -> Option<Metal> {
 
 #[cfg(test)]
 mod tests {
-    use super::{Metal, coarse_deposits, coarse_voxels, floating};
+    use super::{Metal, coarse_deposits, coarse_voxels, floating, slow_arc};
     use thermal::schedule::{Deposit, helix};
 
     /// Laid metal under half or over twice the beads' is reported, each with its cause; within
@@ -431,6 +490,37 @@ mod tests {
             })
             .collect();
         assert_eq!(floating(&strut), None);
+    }
+
+    /// A path whose times are a thousand times too long (a logged time column in ms read as
+    /// s) is reported with its mean speed and the speed at a thousand times the pace: the helix
+    /// at 10 mm/s is not, nor at 1 mm/s (a slow TIG torch), nor a column climbing its own axis.
+    #[test]
+    fn an_arc_slower_than_any_torch_is_reported() {
+        let paced = |mm_s: f64| {
+            let mut deps = helix(0.025, 40, 3, 2e-3, 5e-3, 10e-3, 1700.0);
+            for d in deps.iter_mut() {
+                d.arc_time *= 10.0 / mm_s;
+                d.time *= 10.0 / mm_s;
+            }
+            deps
+        };
+        assert_eq!(slow_arc(&paced(10.0)), None);
+        assert_eq!(slow_arc(&paced(1.0)), None);
+        let slow = slow_arc(&paced(0.01)).expect("reported");
+        // The chords are 0.1 % shorter than the arcs the helix times.
+        assert!((slow.speed_mm_s() / 0.01 - 1.0).abs() < 0.01, "{slow:?}");
+        let line = slow.line();
+        assert!(
+            line.contains("0.0100 mm/s") && line.contains("9.99 mm/s at a thousand"),
+            "{line}"
+        );
+        let mut held = paced(0.01);
+        for (k, d) in held.iter_mut().enumerate() {
+            d.position = [0.0, 0.0, 2e-3 * (k + 1) as f64];
+            d.axis = [0.0, 0.0, 1.0];
+        }
+        assert_eq!(slow_arc(&held), None, "a column climbing its own axis");
     }
 
     /// A helix of 8 deposits a revolution at R 25 mm (19.1 mm chords) is reported against 3 mm
