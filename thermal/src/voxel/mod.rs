@@ -992,9 +992,9 @@ impl VoxelModel {
         match deps[i].support {
             Some(s) if !self.laid[s].is_empty() => self.under_point(deps, s),
             // A support that switched on no cell of its own (its segment over cells already
-            // laid) lies in the metal of the bead either side of it: read there, as a support
-            // with cells is. Its own support, a revolution further down (on a flat crown, also
-            // further out and a revolution older), only where no cell of the bead lies within a
+            // laid) lies in the metal of the bead beside it or of the cell there: read as a
+            // support with cells is. Its own support, a revolution further down (on a flat
+            // crown, also further out and a revolution older), only where no cell lies within a
             // cell of its point (docs/PHYSICS.md "The metal at the support's point").
             Some(s) => match self.under_point(deps, s) {
                 along if along.is_empty() => self.beneath(deps, s),
@@ -1027,13 +1027,15 @@ impl VoxelModel {
     /// The metal at deposit s's point: the voxels of the bead laid along the path within a cell
     /// of the point, on either side (s's own segment behind it, the next ones ahead), each
     /// weighted by 1 − d/dx at its distance d from the point along the path (between two
-    /// columns of cells, their temperatures interpolated), else all of s's own alike. The thin
-    /// wall reads the node at the point. A deposit's voxels run its whole segment back towards
-    /// the torch, which reads preheat `lead_mm` upstream: where a deposit is half the lead long
-    /// (the R 100 cylinder's 5.2 mm chords against 10 mm) its nearest voxels lie some 5 mm
-    /// from the arc and read the arc's front, and the mean of a deposit's voxels made the
-    /// points' preheats alternate by up to 140 K as their segments took a column of cells more
-    /// or less (docs/PHYSICS.md "The metal at the support's point").
+    /// columns of cells, their temperatures interpolated), else the cell nearest the bead's
+    /// middle at the point (not for a drop), else all of s's own alike (an empty list where s laid none and no
+    /// cell lies there). The thin wall reads the node at the point. A deposit's voxels run its
+    /// whole segment back towards the torch, which reads preheat `lead_mm` upstream: where a
+    /// deposit is half the lead long (the R 100 cylinder's 5.2 mm chords against 10 mm) its
+    /// nearest voxels lie some 5 mm from the arc and read the arc's front, and the mean of a
+    /// deposit's voxels made the points' preheats alternate by up to 140 K as their segments
+    /// took a column of cells more or less (docs/PHYSICS.md "The metal at the support's
+    /// point").
     fn under_point(&self, deps: &[Deposit], s: usize) -> Vec<(u32, f64)> {
         let p = deps[s].position;
         let dx = self.settings.size;
@@ -1072,9 +1074,19 @@ impl VoxelModel {
             .map(|&v| (v, 1.0 - dot(sub(self.centre_of(v), p), along).abs() / dx))
             .filter(|&(_, w)| w > 0.0)
             .collect();
-        match out.is_empty() {
-            true => own(),
-            false => out,
+        if !out.is_empty() {
+            return out;
+        }
+        // No cell of the bead within a cell of the point along the path (s's cells lie back
+        // towards the torch, the next deposit laid none): the cell at the bead's middle there,
+        // whoever laid it, rather than s's own cells, which read the arc's front as the mean
+        // once did (a head's flange read 26-30 K over its neighbours at single points). A
+        // skeleton's drop has no bead along a path: its own cells, the drop, as before.
+        let d = &deps[s];
+        let bead = sub(p, scale(d.axis, self.sink[s] + 0.5 * d.height));
+        match self.voxel_near(bead) {
+            Some(v) if d.drop.is_none() => vec![(v, 1.0)],
+            _ => own(),
         }
     }
 
@@ -2594,6 +2606,59 @@ mod tests {
         eprintln!("third revolution: jitter {jitter:.2} K, rise {rise:.1} K");
         assert!(rise > 50.0, "the metal beneath is warm: {rise} K");
         assert!(jitter < 5.0, "{jitter} K between neighbours");
+    }
+
+    /// Where none of a support's cells lies within a cell of its point along the path (the
+    /// cells there laid before it, the next deposit's further on), its metal is read at the cell
+    /// at its bead's middle there, not at its own cells back towards the torch, which read the
+    /// arc's front: single points of a head's flange 26-30 K over their neighbours
+    /// (docs/PHYSICS.md "The metal at the support's point"). A second track over a first, a
+    /// tack laid before it from 5.5 to 10 mm: the support ending at 6 mm was read at its own cells
+    /// 3 mm and more back, now within a cell of its point.
+    #[test]
+    fn a_support_whose_cells_lie_back_is_read_at_its_point() {
+        let (_, mut settings) = three_revolutions(100.0);
+        settings.watch_metal = false;
+        let bead = |x: f64, top: f64, start: Option<f64>| Deposit {
+            position: [x, 0.0, top],
+            time: 0.0,
+            arc_time: 0.5,
+            heat: 500.0,
+            width: 4e-3,
+            height: 1.8e-3,
+            axis: [0.0, 0.0, 1.0],
+            support: None,
+            start: start.map(|s| [s, 0.0, top]),
+            drop: None,
+        };
+        let x = |k: usize| -24e-3 + 6e-3 * k as f64;
+        let mut deps: Vec<Deposit> = (0..9).map(|k| bead(x(k), 2e-3, None)).collect();
+        let mut tack = bead(10e-3, 3.2e-3, Some(5.5e-3));
+        tack.support = Some(5);
+        deps.push(tack);
+        for k in 0..9 {
+            let mut d = bead(x(k), 3.2e-3, (k == 0).then(|| x(0)));
+            d.support = Some(k);
+            deps.push(d);
+        }
+        for (k, d) in deps.iter_mut().enumerate() {
+            d.time = 0.5 * (k + 1) as f64;
+        }
+        let s = 10 + 5; // the second track's segment from x = 0 to 6 mm
+        let mut run = VoxelRun::new(VoxelModel::new(&deps, &settings).unwrap(), &deps).unwrap();
+        for i in 0..=s + 1 {
+            run.deposit(i, 0.0).unwrap();
+        }
+        let m = run.model();
+        let dx = settings.size;
+        let back = |v: u32| deps[s].position[0] - m.centre_of(v)[0];
+        assert!(!m.laid[s].is_empty() && m.laid[s].iter().all(|&v| back(v) > dx));
+        assert!(m.laid[s + 1].iter().all(|&v| back(v) < -dx));
+        let read = m.under_point(&deps, s);
+        assert!(!read.is_empty());
+        for (v, _) in read {
+            assert!(back(v).abs() <= dx, "a cell {:.1} mm back", back(v) * 1e3);
+        }
     }
 
     /// A support that switched on no cell of its own is read at the bead's cells either side of
