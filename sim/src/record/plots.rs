@@ -776,6 +776,8 @@ pub fn interlayer_map(
             .configure_mesh()
             .x_desc(x_desc)
             .y_desc("layer")
+            .x_label_formatter(&whole)
+            .y_label_formatter(&whole)
             .label_style((FONT, 15))
             .draw()?;
         chart.draw_series(
@@ -794,6 +796,7 @@ pub fn interlayer_map(
             .disable_x_mesh()
             .disable_x_axis()
             .y_desc("% of Δ")
+            .y_label_formatter(&whole)
             .label_style((FONT, 14))
             .draw()?;
         scale.draw_series((0..100).map(|k| {
