@@ -1028,14 +1028,14 @@ impl VoxelModel {
     /// of the point, on either side (s's own segment behind it, the next ones ahead), each
     /// weighted by 1 − d/dx at its distance d from the point along the path (between two
     /// columns of cells, their temperatures interpolated), else the cell nearest the bead's
-    /// middle at the point (not for a drop), else all of s's own alike (an empty list where s laid none and no
-    /// cell lies there). The thin wall reads the node at the point. A deposit's voxels run its
-    /// whole segment back towards the torch, which reads preheat `lead_mm` upstream: where a
-    /// deposit is half the lead long (the R 100 cylinder's 5.2 mm chords against 10 mm) its
-    /// nearest voxels lie some 5 mm from the arc and read the arc's front, and the mean of a
-    /// deposit's voxels made the points' preheats alternate by up to 140 K as their segments
-    /// took a column of cells more or less (docs/PHYSICS.md "The metal at the support's
-    /// point").
+    /// middle at the point (not for a drop), else all of s's own alike (an empty list where s
+    /// laid none and no cell lies there). The thin wall reads the node at the point. A
+    /// deposit's voxels run its whole segment back towards the torch, which reads preheat
+    /// `lead_mm` upstream: where a deposit is half the lead long (the R 100 cylinder's 5.2 mm
+    /// chords against 10 mm) its nearest voxels lie some 5 mm from the arc and read the arc's
+    /// front, and the mean of a deposit's voxels made the points' preheats alternate by up to
+    /// 140 K as their segments took a column of cells more or less (docs/PHYSICS.md "The metal
+    /// at the support's point").
     fn under_point(&self, deps: &[Deposit], s: usize) -> Vec<(u32, f64)> {
         let p = deps[s].position;
         let dx = self.settings.size;
@@ -2613,8 +2613,8 @@ mod tests {
     /// at its bead's middle there, not at its own cells back towards the torch, which read the
     /// arc's front: single points of a head's flange 26-30 K over their neighbours
     /// (docs/PHYSICS.md "The metal at the support's point"). A second track over a first, a
-    /// tack laid before it from 5.5 to 10 mm: the support ending at 6 mm was read at its own cells
-    /// 3 mm and more back, now within a cell of its point.
+    /// tack laid before it from 5.5 to 10 mm: the support ending at 6 mm was read at its own
+    /// cells 3 mm and more back, now within a cell of its point.
     #[test]
     fn a_support_whose_cells_lie_back_is_read_at_its_point() {
         let (_, mut settings) = three_revolutions(100.0);
