@@ -1024,6 +1024,13 @@ impl VoxelModel {
         }
     }
 
+    /// The middle of deposit k's settled bead beneath `p`, a point of its path (m): half its
+    /// height under its metal's top, which lies `sink` below the path along its build direction.
+    fn bead_middle(&self, deps: &[Deposit], k: usize, p: [f64; 3]) -> [f64; 3] {
+        let d = &deps[k];
+        sub(p, scale(d.axis, self.sink[k] + 0.5 * d.height))
+    }
+
     /// The metal at deposit s's point: the voxels of the bead laid along the path within a cell
     /// of the point, on either side (s's own segment behind it, the next ones ahead), each
     /// weighted by 1 − d/dx at its distance d from the point along the path (between two
@@ -1082,10 +1089,8 @@ impl VoxelModel {
         // whoever laid it, rather than s's own cells, which read the arc's front as the mean
         // once did (a head's flange read 26-30 K over its neighbours at single points). A
         // skeleton's drop has no bead along a path: its own cells, the drop, as before.
-        let d = &deps[s];
-        let bead = sub(p, scale(d.axis, self.sink[s] + 0.5 * d.height));
-        match self.voxel_near(bead) {
-            Some(v) if d.drop.is_none() => vec![(v, 1.0)],
+        match self.voxel_near(self.bead_middle(deps, s, p)) {
+            Some(v) if deps[s].drop.is_none() => vec![(v, 1.0)],
             _ => own(),
         }
     }
@@ -1788,10 +1793,9 @@ impl VoxelModel {
             let before = q.checked_sub(1).map_or(0.0, |b| along[b]);
             j = q as isize - 1;
             let m = (q + at) / 2;
-            let d = &deps[m];
-            let (a, b) = (segment_start(deps, m), d.position);
+            let (a, b) = (segment_start(deps, m), deps[m].position);
             let middle: [f64; 3] = std::array::from_fn(|c| 0.5 * (a[c] + b[c]));
-            let bead = sub(middle, scale(d.axis, self.sink[m] + 0.5 * d.height));
+            let bead = self.bead_middle(deps, m, middle);
             Some(crate::pool::Sample {
                 t: self.voxel_near(bead).map(|v| self.temperature(v)),
                 length: along[at] - before,
