@@ -5,7 +5,8 @@ use super::vec3::{cross, dot, norm, normalize, scale, sub};
 use super::*;
 use crate::network::Surroundings;
 use crate::run::{Burn, Cells};
-use crate::schedule::helix;
+use crate::schedule::{helix, segment_start};
+use rustc_hash::FxHashSet as HashSet;
 
 /// A 3-revolution helix R 30 mm on a `plate_mm` square plate, 2 mm voxels.
 fn three_revolutions(plate_mm: f64) -> (Vec<Deposit>, VoxelSettings) {
