@@ -2,6 +2,7 @@
 //! preheat, read at its support's point), the melt pool behind the torch, the peaks, snapshots
 //! and the top surface.
 
+use super::lay::bead_frame;
 use super::vec3::{dot, norm, normalize, scale, sub};
 use super::{OBSERVED_PER_TASK, VoxelModel};
 use crate::run::{PointResult, Snapshot};
@@ -116,7 +117,11 @@ impl VoxelModel {
     /// The metal at deposit s's point: the voxels of the bead laid along the path within a cell
     /// of the point, on either side (s's own segment behind it, the next ones ahead), each
     /// weighted by 1 − d/dx at its distance d from the point along the path (between two
-    /// columns of cells, their temperatures interpolated), else the cell nearest the bead's
+    /// columns of cells, their temperatures interpolated), and likewise by its distance across
+    /// the bead from its centre line and along the build direction from the middle of the bead
+    /// that laid it: the bead's core, not its edges. A tilted bead's outer cells stand a layer
+    /// up, beside the bead being laid, and read its heat (a head's knuckle: single points 20-27
+    /// K over their neighbours; a drop is read along the path alone). Else the cell nearest the bead's
     /// middle at the point (not for a drop), else all of s's own alike (an empty list where s
     /// laid none and no cell lies there). The thin wall reads the node at the point. A
     /// deposit's voxels run its whole segment back towards the torch, which reads preheat
@@ -157,10 +162,27 @@ impl VoxelModel {
             near.push(k);
             ahead += distance(deps[k].position, segment_start(deps, k));
         }
+        let (_, across, _) = bead_frame(deps, s);
+        let drop = deps[s].drop.is_some();
         let out: Vec<(u32, f64)> = near
             .iter()
-            .flat_map(|&k| &self.laid[k])
-            .map(|&v| (v, 1.0 - dot(sub(self.centre_of(v), p), along).abs() / dx))
+            .flat_map(|&k| {
+                let middle = self.bead_middle(deps, k, p);
+                self.laid[k].iter().map(move |&v| (k, middle, v))
+            })
+            .map(|(k, middle, v)| {
+                let c = self.centre_of(v);
+                let off = |from: [f64; 3], dir: [f64; 3]| dot(sub(c, from), dir).abs() / dx;
+                let w = 1.0 - off(p, along);
+                match drop {
+                    true => (v, w),
+                    false => {
+                        let core = (1.0 - off(p, across)).max(0.0)
+                            * (1.0 - off(middle, deps[k].axis)).max(0.0);
+                        (v, w.max(0.0) * core)
+                    }
+                }
+            })
             .filter(|&(_, w)| w > 0.0)
             .collect();
         if !out.is_empty() {

@@ -62,6 +62,43 @@ fn a_preheat_is_read_at_the_supports_point() {
     assert!(jitter < 5.0, "{jitter} K between neighbours");
 }
 
+/// A support's cells are read at the bead's core, not at its edges: on a wall leaning in (a
+/// pressure-vessel head's knuckle) a tilted bead's outer cells stand a layer up, beside the
+/// bead being laid, and read its heat: single points of a head's knuckle 20-27 K over their
+/// neighbours (docs/PHYSICS.md "The metal at the support's point"). A knuckle of radius 20 mm
+/// turning in from R 100 mm, 1.8 mm layers along it, 120 chords a revolution, the torch along
+/// the wall: the largest departure of a point of its last four revolutions (leaning 21-40°)
+/// from the mean of its two neighbours, 33.9 K reading every cell along the path, 3.2 K now
+/// (the rise some 215 K).
+#[test]
+fn a_leaning_walls_support_is_read_at_its_beads_core() {
+    let (_, mut settings) = three_revolutions(240.0);
+    settings.watch_metal = false;
+    let (n, revs, h, knuckle) = (120, 8, 1.8e-3, 0.02);
+    let mut deps = helix(0.1, n, revs, h, 5e-3, 10e-3, 2500.0);
+    for (i, d) in deps.iter_mut().enumerate() {
+        let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+        let phi = h * i as f64 / n as f64 / knuckle;
+        let r = 0.1 - knuckle * (1.0 - phi.cos());
+        d.position = [r * th.cos(), r * th.sin(), h + knuckle * phi.sin()];
+        d.axis = [-phi.sin() * th.cos(), -phi.sin() * th.sin(), phi.cos()];
+    }
+    let r = VoxelModel::new(&deps, &settings)
+        .unwrap()
+        .run(&deps)
+        .unwrap();
+    let p: Vec<f64> = r.points.iter().map(|q| q.preheat).collect();
+    let last = (revs / 2) * n + 1..revs * n - 1;
+    let jitter = last
+        .clone()
+        .map(|i| (p[i] - 0.5 * (p[i - 1] + p[i + 1])).abs())
+        .fold(0.0, f64::max);
+    let rise = p[last].iter().fold(0.0f64, |a, &b| a.max(b)) - 293.15;
+    eprintln!("the knuckle's last four revolutions: jitter {jitter:.2} K, rise {rise:.1} K");
+    assert!(rise > 50.0, "the metal beneath is warm: {rise} K");
+    assert!(jitter < 5.0, "{jitter} K between neighbours");
+}
+
 /// Where none of a support's cells lies within a cell of its point along the path (the
 /// cells there laid before it, the next deposit's further on), its metal is read at the cell
 /// at its bead's middle there, not at its own cells back towards the torch, which read the
