@@ -56,7 +56,7 @@ impl VoxelModel {
 
     /// The temperature of what deposit i is laid on (its preheat, read as the torch comes):
     /// its support's metal at the support's point ([`VoxelModel::under_point`]), or the
-    /// plate's top under it, K.
+    /// plate's top at its point ([`VoxelModel::plate_at`]), K.
     pub(super) fn temperature_under(&self, deps: &[Deposit], i: usize) -> f64 {
         let (mut sum, mut weight) = (0.0, 0.0);
         for (v, w) in self.beneath(deps, i) {
@@ -70,7 +70,7 @@ impl VoxelModel {
     }
 
     /// The voxels deposit i is laid on, each with its weight: its support's metal at the
-    /// support's point, or the plate's top under it (each alike).
+    /// support's point, or the plate's top at its point.
     pub(super) fn beneath(&self, deps: &[Deposit], i: usize) -> Vec<(u32, f64)> {
         match deps[i].support {
             Some(s) if !self.laid[s].is_empty() => self.under_point(deps, s),
@@ -83,28 +83,59 @@ impl VoxelModel {
                 along if along.is_empty() => self.beneath(deps, s),
                 along => along,
             },
-            None => {
-                let p = deps[i].position;
-                let dx = self.settings.size;
-                let r = (deps[i].width / 2.0 / dx).ceil() as isize;
-                let (cx, cy) = (
-                    ((p[0] - self.origin[0]) / dx) as isize,
-                    ((p[1] - self.origin[1]) / dx) as isize,
-                );
-                let mut out = Vec::new();
-                for oy in -r..=r {
-                    for ox in -r..=r {
-                        if let Some(&v) = self
-                            .plate_top
-                            .get(&((cx + ox) as usize, (cy + oy) as usize))
-                        {
-                            out.push((v, 1.0));
-                        }
-                    }
+            // On the plate: its top at the point; under the bead's width only where no column
+            // lies round the point (at the plate's edge).
+            None => match self.plate_at(deps[i].position) {
+                at if !at.is_empty() => at,
+                _ => self.plate_under(deps, i),
+            },
+        }
+    }
+
+    /// The plate's top under deposit i's bead: the columns within its half width of its point
+    /// each alike (a coarse cell once per column it covers).
+    fn plate_under(&self, deps: &[Deposit], i: usize) -> Vec<(u32, f64)> {
+        let p = deps[i].position;
+        let dx = self.settings.size;
+        let r = (deps[i].width / 2.0 / dx).ceil() as isize;
+        let (cx, cy) = (
+            ((p[0] - self.origin[0]) / dx) as isize,
+            ((p[1] - self.origin[1]) / dx) as isize,
+        );
+        let mut out = Vec::new();
+        for oy in -r..=r {
+            for ox in -r..=r {
+                if let Some(&v) = self
+                    .plate_top
+                    .get(&((cx + ox) as usize, (cy + oy) as usize))
+                {
+                    out.push((v, 1.0));
                 }
-                out
             }
         }
+        out
+    }
+
+    /// The plate's top at `p` (m): the four columns round it, each weighted bilinearly by its
+    /// centre's distance from `p` across the plate (a coarse cell once per column it covers).
+    pub(super) fn plate_at(&self, p: [f64; 3]) -> Vec<(u32, f64)> {
+        let dx = self.settings.size;
+        let f = [0, 1].map(|k| (p[k] - self.origin[k]) / dx - 0.5);
+        let mut out = Vec::new();
+        for oy in 0..2 {
+            for ox in 0..2 {
+                let c = [f[0].floor() + ox as f64, f[1].floor() + oy as f64];
+                if c.iter().any(|&x| x < 0.0) {
+                    continue;
+                }
+                let w = (1.0 - (c[0] - f[0]).abs()) * (1.0 - (c[1] - f[1]).abs());
+                match self.plate_top.get(&(c[0] as usize, c[1] as usize)) {
+                    Some(&v) if w > 0.0 => out.push((v, w)),
+                    _ => {}
+                }
+            }
+        }
+        out
     }
 
     /// The middle of deposit k's settled bead beneath `p`, a point of its path (m): half its

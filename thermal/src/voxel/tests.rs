@@ -62,6 +62,34 @@ fn a_preheat_is_read_at_the_supports_point() {
     assert!(jitter < 5.0, "{jitter} K between neighbours");
 }
 
+/// A point on the plate reads the plate's top at the point, the four columns round it
+/// interpolated, not every cell under the bead's width alike: the square of 5 × 5 columns
+/// shifted by a column as the points went round, and their preheats alternated (a library
+/// hemisphere's first layer 26 K from its neighbours' mean at 25–60 °C; docs/PHYSICS.md "The
+/// metal at the support's point"). A ring of R 100 in 120 chords on a 240 mm plate, its first
+/// revolution: the largest departure of a point from the mean of its two neighbours.
+#[test]
+fn a_point_on_the_plate_reads_the_plate_at_the_point() {
+    let (_, mut settings) = three_revolutions(240.0);
+    settings.watch_metal = false;
+    let deps = helix(0.1, 120, 2, 1.8e-3, 5e-3, 10e-3, 2500.0);
+    let r = VoxelModel::new(&deps, &settings)
+        .unwrap()
+        .run(&deps)
+        .unwrap();
+    let p: Vec<f64> = r.points.iter().map(|q| q.preheat).collect();
+    let jitter = (1..119)
+        .map(|i| (p[i] - 0.5 * (p[i - 1] + p[i + 1])).abs())
+        .fold(0.0, f64::max);
+    let rise = p[1..119].iter().fold(0.0f64, |a, &b| a.max(b)) - 293.15;
+    eprintln!("first revolution: jitter {jitter:.2} K, rise {rise:.1} K");
+    assert!(
+        rise > 5.0,
+        "the plate warms as the arc comes round: {rise} K"
+    );
+    assert!(jitter < 3.0, "{jitter} K between neighbours");
+}
+
 /// A support's cells are read at the bead's core, not at its edges: on a wall leaning in (a
 /// pressure-vessel head's knuckle) a tilted bead's outer cells stand a layer up, beside the
 /// bead being laid, and read its heat: single points of a head's knuckle 20-27 K over their
