@@ -117,6 +117,34 @@ impl PlateCells {
             .then(|| self.column_of[j as usize * self.n[0] + i as usize] as usize)
     }
 
+    /// The top cells round point (x, y), m, each weighted bilinearly by its fine column's
+    /// centre's distance from the point (a merged cell once per fine column it covers): the
+    /// plate's top at the point, where [`Self::top_at`] gives the cell that holds it. None off
+    /// the plate.
+    pub fn top_around(&self, x: f64, y: f64) -> Vec<(usize, f64)> {
+        let f = [
+            (x - self.origin[0]) / self.cell[0] - 0.5,
+            (y - self.origin[1]) / self.cell[1] - 0.5,
+        ];
+        let mut out = Vec::with_capacity(4);
+        for (oi, oj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let (i, j) = (f[0].floor() + oi as f64, f[1].floor() + oj as f64);
+            let w = (1.0 - (i - f[0]).abs()) * (1.0 - (j - f[1]).abs());
+            if i >= 0.0
+                && j >= 0.0
+                && (i as usize) < self.n[0]
+                && (j as usize) < self.n[1]
+                && w > 0.0
+            {
+                out.push((
+                    self.column_of[j as usize * self.n[0] + i as usize] as usize,
+                    w,
+                ));
+            }
+        }
+        out
+    }
+
     /// Each cell in order: its mass at density `rho`, its top (exposed) and table areas, its
     /// centre, and its side in fine cells.
     pub fn cells(&self, rho: f64) -> impl Iterator<Item = (f64, f64, f64, [f64; 3], u8)> + '_ {

@@ -19,7 +19,7 @@ use crate::run::{
     Snapshot, Support, Trace, replay,
 };
 use crate::schedule::{Deposit, just_laid, read_fractions, segment_start, validate};
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -159,6 +159,10 @@ pub struct WallModel {
     top: Vec<f64>,
     /// Per deposit: the node it is laid on (a wall node or a plate cell).
     below: Vec<usize>,
+    /// Per deposit laid on the plate: the plate's top at its point, the cells round it each
+    /// with its weight ([`PlateCells::top_around`]), what its preheat reads.
+    #[serde(default)]
+    plate_at: BTreeMap<usize, Vec<(usize, f64)>>,
     length: Arc<Vec<f64>>,
     volume: Arc<Vec<f64>>,
 }
@@ -230,6 +234,7 @@ impl WallModel {
         }
         // To what each deposit is laid on: one edge per pair of nodes, the contact area summed.
         let mut below = Vec::with_capacity(deps.len());
+        let mut plate_at = BTreeMap::new();
         let mut contact_edges: HashMap<(usize, usize), (f64, f64)> = HashMap::new(); // area, length
         for (i, d) in deps.iter().enumerate() {
             let me = l.node_of[i];
@@ -261,6 +266,10 @@ impl WallModel {
                 }
             };
             below.push(under);
+            if d.support.is_none() {
+                let around = plate.top_around(d.position[0], d.position[1]);
+                plate_at.insert(i, around.into_iter().map(|(c, w)| (nw + c, w)).collect());
+            }
             for (c, share) in contacts {
                 if c != me {
                     let gap = match d.support {
@@ -301,6 +310,7 @@ impl WallModel {
             plate_side: Arc::new(plate_side),
             top,
             below,
+            plate_at,
             length: Arc::new(l.length),
             volume: Arc::new(volume),
         })
@@ -352,6 +362,9 @@ pub struct WallRun {
     /// Where the torch will be, where the nodes far from the arc step at their own rates.
     reach: Option<Arc<Reach>>,
     below: Arc<Vec<usize>>,
+    /// What a deposit laid on the plate reads ([`WallModel::plate_at`]).
+    #[serde(default)]
+    plate_at: Arc<BTreeMap<usize, Vec<(usize, f64)>>>,
     /// Time now, s; deposits laid so far.
     now: f64,
     laid: usize,
@@ -380,6 +393,7 @@ impl WallRun {
             }
         }
         let below = std::mem::take(&mut model.below);
+        let plate_at = std::mem::take(&mut model.plate_at);
         let reach = s.local_steps.map(|local| {
             model.network.local_steps(local);
             let from: Vec<[f64; 3]> = (0..deps.len()).map(|i| segment_start(deps, i)).collect();
@@ -410,6 +424,7 @@ impl WallRun {
             powered: Vec::new(),
             reach,
             below: Arc::new(below),
+            plate_at: Arc::new(plate_at),
             now: deps.first().map_or(0.0, |d| d.arc_start()),
             laid: 0,
             underpowered: 0,
@@ -547,8 +562,9 @@ impl HeatRun for WallRun {
     ) -> Result<(), ThermalError> {
         let burn = Burn::or_scheduled(burn, &self.deps[i], i)?;
         self.cool(dwell)?;
-        let (t, below) = (&self.model.network.t, &self.below);
-        self.drops.before(&self.deps, i, burn.drop, |k| t[below[k]]);
+        let (t, below, plate_at) = (&self.model.network.t, &self.below, &self.plate_at);
+        self.drops
+            .before(&self.deps, i, burn.drop, |k| beneath(t, below, plate_at, k));
         // Laid from here on: the arc's step below observes it.
         self.laid = i + 1;
         let deps = Arc::clone(&self.deps);
@@ -580,7 +596,7 @@ impl HeatRun for WallRun {
         // Preheats read during this arc: interpolated between its start and its end.
         let before: Vec<f64> = self.probes_at[i]
             .iter()
-            .map(|&(k, _)| m.network.t[self.below[k]])
+            .map(|&(k, _)| beneath(&m.network.t, &self.below, &self.plate_at, k))
             .collect();
         let arc = burn.arc_time;
         if arc > 0.0 {
@@ -621,7 +637,7 @@ impl HeatRun for WallRun {
             } else {
                 f
             };
-            let t1 = self.model.network.t[self.below[k]];
+            let t1 = beneath(&self.model.network.t, &self.below, &self.plate_at, k);
             self.points[k].preheat = t0 + f * (t1 - t0);
         }
         if let Some(t) = self.drops.after(i, burn.drop) {
@@ -715,7 +731,7 @@ impl HeatRun for WallRun {
     }
 
     fn temperature_beneath(&self, i: usize) -> f64 {
-        self.model.network.t[self.below[i]]
+        beneath(&self.model.network.t, &self.below, &self.plate_at, i)
     }
 
     fn temperature_of(&self, i: usize) -> f64 {
@@ -785,6 +801,24 @@ impl Torch for TorchOnPath<'_> {
             (Some(r), Some(w)) => !r.window_within(self.positions[i], d, w),
             _ => false,
         }
+    }
+}
+
+/// The temperature of what deposit k lies on: its support's node, or the plate's top at its
+/// point (`plate_at`: the cells round it interpolated; the one cell that holds the point made
+/// a first revolution's preheats alternate by 12 K as the points crossed the cells).
+fn beneath(
+    t: &[f64],
+    below: &[usize],
+    plate_at: &BTreeMap<usize, Vec<(usize, f64)>>,
+    k: usize,
+) -> f64 {
+    match plate_at.get(&k) {
+        Some(around) if !around.is_empty() => {
+            let w: f64 = around.iter().map(|a| a.1).sum();
+            around.iter().map(|&(c, a)| a * t[c]).sum::<f64>() / w
+        }
+        _ => t[below[k]],
     }
 }
 

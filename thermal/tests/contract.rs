@@ -944,3 +944,25 @@ fn a_voxel_set_by_assimilation_is_booked_and_felt() {
     assert!(r.ledger.assimilated != 0.0);
     assert!(r.balance_error.abs() < 1e-6, "{}", r.balance_error);
 }
+
+/// A point laid on the plate reads the plate's top at its point, the cells round it
+/// interpolated: read at the one cell that holds it (the thin wall's 5 mm cells) or every
+/// cell under the bead's width alike (the voxel model's), a ring's first revolution
+/// alternated as its points crossed the cells (docs/PHYSICS.md "The metal at the support's
+/// point"). A ring of R 25 in 40 chords, its first revolution: the largest departure of a
+/// point from the mean of its two neighbours, every model.
+#[test]
+fn a_point_on_the_plate_reads_the_plate_at_its_point() {
+    let deps = helix(0.025, 40, 1, 2e-3, 5e-3, 10e-3, 1700.0);
+    for model in all_models(Material::g3si()) {
+        let p = preheats(&model.simulate(&deps).unwrap());
+        let jitter = (1..39)
+            .map(|i| (p[i] - 0.5 * (p[i - 1] + p[i + 1])).abs())
+            .fold(0.0, f64::max);
+        let rise = p[..39].iter().fold(0.0f64, |a, &b| a.max(b)) - 293.15;
+        eprintln!("{}: jitter {jitter:.2} K, rise {rise:.1} K", model.name());
+        assert!(rise > 5.0, "{}: the plate warms: {rise} K", model.name());
+        // 16.6 K on the thin wall read at the cell holding the point; 3.2 K now.
+        assert!(jitter < 5.0, "{}: {jitter} K", model.name());
+    }
+}
