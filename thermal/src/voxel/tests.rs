@@ -37,6 +37,23 @@ fn three_revolutions(plate_mm: f64) -> (Vec<Deposit>, VoxelSettings) {
     (deps, settings)
 }
 
+/// Over the points `range` of a run on `deps`: the largest departure of a point's preheat from
+/// the mean of its two neighbours, and the largest rise over ambient, K.
+fn preheat_jitter(
+    deps: &[Deposit],
+    settings: &VoxelSettings,
+    range: std::ops::Range<usize>,
+) -> (f64, f64) {
+    let r = VoxelModel::new(deps, settings).unwrap().run(deps).unwrap();
+    let p: Vec<f64> = r.points.iter().map(|q| q.preheat).collect();
+    let jitter = range
+        .clone()
+        .map(|i| (p[i] - 0.5 * (p[i - 1] + p[i + 1])).abs())
+        .fold(0.0, f64::max);
+    let rise = p[range].iter().fold(0.0f64, |a, &b| a.max(b)) - 293.15;
+    (jitter, rise)
+}
+
 /// The preheat of a point is the metal at its support's point, not along the support's whole
 /// segment: on a ring of R 100 in 120 chords (5.2 mm, half the 10 mm lead) each support's
 /// segment reached back to within some 5 mm of the arc, and the points' preheats alternated
@@ -48,15 +65,7 @@ fn a_preheat_is_read_at_the_supports_point() {
     let (_, mut settings) = three_revolutions(240.0);
     settings.watch_metal = false;
     let deps = helix(0.1, 120, 3, 1.8e-3, 5e-3, 10e-3, 2500.0);
-    let r = VoxelModel::new(&deps, &settings)
-        .unwrap()
-        .run(&deps)
-        .unwrap();
-    let p: Vec<f64> = r.points.iter().map(|q| q.preheat).collect();
-    let jitter = (241..359)
-        .map(|i| (p[i] - 0.5 * (p[i - 1] + p[i + 1])).abs())
-        .fold(0.0, f64::max);
-    let rise = p[241..359].iter().fold(0.0f64, |a, &b| a.max(b)) - 293.15;
+    let (jitter, rise) = preheat_jitter(&deps, &settings, 241..359);
     eprintln!("third revolution: jitter {jitter:.2} K, rise {rise:.1} K");
     assert!(rise > 50.0, "the metal beneath is warm: {rise} K");
     assert!(jitter < 5.0, "{jitter} K between neighbours");
@@ -73,15 +82,7 @@ fn a_point_on_the_plate_reads_the_plate_at_the_point() {
     let (_, mut settings) = three_revolutions(240.0);
     settings.watch_metal = false;
     let deps = helix(0.1, 120, 2, 1.8e-3, 5e-3, 10e-3, 2500.0);
-    let r = VoxelModel::new(&deps, &settings)
-        .unwrap()
-        .run(&deps)
-        .unwrap();
-    let p: Vec<f64> = r.points.iter().map(|q| q.preheat).collect();
-    let jitter = (1..119)
-        .map(|i| (p[i] - 0.5 * (p[i - 1] + p[i + 1])).abs())
-        .fold(0.0, f64::max);
-    let rise = p[1..119].iter().fold(0.0f64, |a, &b| a.max(b)) - 293.15;
+    let (jitter, rise) = preheat_jitter(&deps, &settings, 1..119);
     eprintln!("first revolution: jitter {jitter:.2} K, rise {rise:.1} K");
     assert!(
         rise > 5.0,
@@ -111,17 +112,8 @@ fn a_leaning_walls_support_is_read_at_its_beads_core() {
         d.position = [r * th.cos(), r * th.sin(), h + knuckle * phi.sin()];
         d.axis = [-phi.sin() * th.cos(), -phi.sin() * th.sin(), phi.cos()];
     }
-    let r = VoxelModel::new(&deps, &settings)
-        .unwrap()
-        .run(&deps)
-        .unwrap();
-    let p: Vec<f64> = r.points.iter().map(|q| q.preheat).collect();
     let last = (revs / 2) * n + 1..revs * n - 1;
-    let jitter = last
-        .clone()
-        .map(|i| (p[i] - 0.5 * (p[i - 1] + p[i + 1])).abs())
-        .fold(0.0, f64::max);
-    let rise = p[last].iter().fold(0.0f64, |a, &b| a.max(b)) - 293.15;
+    let (jitter, rise) = preheat_jitter(&deps, &settings, last);
     eprintln!("the knuckle's last four revolutions: jitter {jitter:.2} K, rise {rise:.1} K");
     assert!(rise > 50.0, "the metal beneath is warm: {rise} K");
     assert!(jitter < 5.0, "{jitter} K between neighbours");
