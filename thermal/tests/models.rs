@@ -167,3 +167,66 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
         assert!(peak.0 > 1740.0 && peak.1 > 1740.0, "{peak:?}");
     }
 }
+
+/// The thin wall on a ring whose deposits are a little under `min_node` (2.8 mm on 3 mm, as a
+/// canister 100 × 80 mm cut by 106 generators): its nodes were grown to at least `min_node`,
+/// two deposits each, one temperature laid whole at the first; neighbouring points' preheats
+/// alternated by 15 K and the pool by 6 mm, and a false humping risk was read on the third
+/// revolution. Against the same ring with a node per deposit (`min_node` 1 mm).
+#[test]
+fn deposits_a_little_under_a_node_read_as_with_a_node_each() {
+    // R 60 mm, 135 deposits a revolution: 2.79 mm chords.
+    let deps = helix(0.06, 135, 6, 2e-3, 5e-3, 10e-3, 0.85 * 2000.0);
+    let run = |min_node: f64| {
+        let ws = WallSettings {
+            material: Material::g3si(),
+            surroundings: surroundings(),
+            plate: plate(),
+            min_node,
+            deposit_temperature: 1823.15,
+            footprint: 6e-3,
+            lead: 10e-3,
+            hot_threshold: 873.15,
+            max_step: 30.0,
+            probes: vec![],
+            probe_every: 0.0,
+            snapshot_times: vec![],
+            traces: vec![],
+            watch_metal: false,
+            local_steps: None,
+            merge_plate: true,
+        };
+        WallModel::build(&deps, &ws)
+            .unwrap()
+            .run(&deps, &ws, 0.0)
+            .unwrap()
+            .points
+    };
+    let (fine, default) = (run(1e-3), run(3e-3));
+    // Revolutions 2-5: the largest departure of a point from its neighbours' mean.
+    let jitter = |v: &dyn Fn(&PointResult) -> f64, p: &[PointResult]| {
+        (270..p.len() - 1)
+            .map(|i| (v(&p[i]) - 0.5 * (v(&p[i - 1]) + v(&p[i + 1]))).abs())
+            .fold(0.0, f64::max)
+    };
+    let pre = |p: &PointResult| p.preheat;
+    let pool = |p: &PointResult| p.pool_length * 1e3;
+    let longest = |p: &[PointResult]| p[270..].iter().map(pool).fold(0.0, f64::max);
+    let (jp, jl) = (jitter(&pre, &default), jitter(&pool, &default));
+    let (lf, ld) = (longest(&fine), longest(&default));
+    eprintln!(
+        "3 mm nodes: preheat jitter {jp:.2} K, pool jitter {jl:.2} mm, longest pool {ld:.2} mm; \
+         a node a deposit: {:.2} K, {:.2} mm, {lf:.2} mm",
+        jitter(&pre, &fine),
+        jitter(&pool, &fine)
+    );
+    // Nodes of two (before 2026-12-02): 21.4 K, 4.9 mm, 20.0 mm against 12.7 mm.
+    assert!(jp < 2.0, "preheat jitter {jp} K");
+    // The pool's own jitter on this ring, a node a deposit: 2.1 mm (4.9 mm with nodes of two).
+    let jf = jitter(&pool, &fine);
+    assert!(jl < jf + 0.5, "pool jitter {jl} mm against {jf} mm");
+    assert!(
+        (ld - lf).abs() < 1.0,
+        "longest pool {ld} mm against {lf} mm"
+    );
+}
