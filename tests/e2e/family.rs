@@ -227,8 +227,10 @@ fn run_checked(m: &Member) -> Result<Row, String> {
             .map_err(e)?;
         if let Some((i, r)) = fresh.first_risk(&b.criteria) {
             failures.push(format!(
-                "the revolution-dwell plan, called safe, breaks {} at point {i}",
-                r.as_str()
+                "the revolution-dwell plan, called safe, breaks {} at point {i}: {} (on {:?})",
+                r.as_str(),
+                b.criteria.breach(&fresh.result.points[i], r),
+                fresh.result.support[i]
             ));
         }
     }

@@ -149,22 +149,58 @@ struct Revolution {
     dwell_at: usize,
     /// The plan's layer number.
     layer: usize,
+    /// The points whose preheats are read in its stretch, judged with it: its own, less any
+    /// read in the next one's stretch, and the revolution before's last ones read in its own
+    /// (a point and the next revolution's first can be read during one deposit's arc, where
+    /// the revolutions shrink: the dwell before that deposit cools both). Judged by the points
+    /// of the revolution, such a point was judged by no stretch, before its preheat was read
+    /// and never after: a small dome's revolution-dwell plan, called safe, read 212.5 °C in a
+    /// fresh run at the last point before its closing zone.
+    judged_from: usize,
+    judged_end: usize,
+}
+
+impl Revolution {
+    fn judged(&self) -> std::ops::Range<usize> {
+        self.judged_from..self.judged_end
+    }
 }
 
 fn revolutions(pl: &Plan, deps: &[Deposit], lead: f64) -> Vec<Revolution> {
-    let read = read_points(deps, lead);
+    let layers: Vec<usize> = pl.points.iter().map(|q| q.layer).collect();
+    revolutions_read(&layers, &read_points(deps, lead))
+}
+
+/// The revolutions of points on `layers`, each point's preheat read during deposit `read[k]`
+/// (none: before the path starts).
+fn revolutions_read(layers: &[usize], read: &[Option<usize>]) -> Vec<Revolution> {
     let mut revs: Vec<Revolution> = Vec::new();
-    for (i, q) in pl.points.iter().enumerate() {
-        if i == 0 || q.layer != pl.points[i - 1].layer {
+    for (i, &layer) in layers.iter().enumerate() {
+        if i == 0 || layer != layers[i - 1] {
             revs.push(Revolution {
                 first: i,
                 end: i + 1,
                 dwell_at: read[i].unwrap_or(0),
-                layer: q.layer,
+                layer,
+                judged_from: i,
+                judged_end: i + 1,
             });
         } else {
             revs.last_mut().expect("revolution").end = i + 1;
         }
+    }
+    // The points read in each stretch: back from a revolution's first point while the point
+    // before it is read at or after its dwell (never past the revolution before's first).
+    for r in 1..revs.len() {
+        let (floor, at) = (revs[r - 1].first + 1, revs[r].dwell_at);
+        let mut from = revs[r].first;
+        while from > floor && read[from - 1].unwrap_or(0) >= at {
+            from -= 1;
+        }
+        revs[r].judged_from = from;
+    }
+    for r in 0..revs.len() {
+        revs[r].judged_end = revs.get(r + 1).map_or(layers.len(), |n| n.judged_from);
     }
     revs
 }
@@ -837,15 +873,13 @@ impl<R: HeatRun> Planner<'_, R> {
         self.plan.reason[rev.dwell_at] = Some(why);
         self.last_dwell = d;
         self.keep(stretch, 1.0, x, Some(why), start)?;
-        let (left, _) = check(s, &self.run, rev.first..rev.end, 0.0);
+        let (left, _) = check(s, &self.run, rev.judged(), 0.0);
         if let Some((_, risk)) = left {
             self.plan.uncured.push((rev.layer, risk));
-            self.plan
-                .unresolved
-                .extend((rev.first..rev.end).filter(|&k| {
-                    s.judge(&self.run.points()[k], self.run.support(k), 0.0)
-                        .is_some()
-                }));
+            self.plan.unresolved.extend(rev.judged().filter(|&k| {
+                s.judge(&self.run.points()[k], self.run.support(k), 0.0)
+                    .is_some()
+            }));
         }
         Ok(())
     }
@@ -874,8 +908,8 @@ impl<R: HeatRun> Planner<'_, R> {
         let before_safe = self.revs[..]
             .iter()
             .rev()
-            .find(|rv| rv.end <= segment.rev.first)
-            .is_none_or(|rv| check(s, &x, rv.first..rv.end, s.dwell.margin_k).0.is_none());
+            .find(|rv| rv.judged_end <= segment.rev.judged_from)
+            .is_none_or(|rv| check(s, &x, rv.judged(), s.dwell.margin_k).0.is_none());
         Ok((risk.is_none() && before_safe).then_some((x, cost_s, start)))
     }
 
@@ -987,12 +1021,12 @@ impl<R: HeatRun> Planner<'_, R> {
     /// Plan the closing zone, from revolution `zone` on: as before if that keeps it safe, else the
     /// heat input ramped down, else drops.
     fn closing(&mut self, zone: usize) -> Result<(), ThermalError> {
-        let first = self.revs[zone].first;
+        let (first, judged) = (self.revs[zone].first, self.revs[zone].judged_from);
         let start = self.clone();
         for r in zone..self.revs.len() {
             self.revolution(r)?;
         }
-        if self.at_risk(first).is_empty() {
+        if self.at_risk(judged).is_empty() {
             self.plan.closing = Closing::NotNeeded;
             return Ok(());
         }
@@ -1001,17 +1035,17 @@ impl<R: HeatRun> Planner<'_, R> {
         let pace = self.s.pacing.slowest(first..self.n).max(self.pace);
         if self.s.pacing.cools(first..self.n, pace) {
             self.restore(start.clone());
-            self.catch_up(first)?;
+            self.lead_in(zone)?;
             self.pace = pace;
             self.catch_up(self.n)?;
-            if self.at_risk(first).is_empty() {
+            if self.at_risk(judged).is_empty() {
                 self.plan.closing = Closing::RampDown { from: first, pace };
                 return Ok(());
             }
         }
         // Drops: each after a wait until the ring beneath it is under the limit.
         self.restore(start);
-        self.catch_up(first)?;
+        self.lead_in(zone)?;
         let s = self.s;
         let mut longest = 0.0f64;
         let drops = s.pacing.drops(first);
@@ -1043,7 +1077,7 @@ impl<R: HeatRun> Planner<'_, R> {
             }
         }
         self.cursor = self.n;
-        let risky = self.at_risk(first);
+        let risky = self.at_risk(judged);
         self.plan.unresolved.extend(risky);
         self.plan.unresolved.sort_unstable();
         self.plan.unresolved.dedup();
@@ -1052,6 +1086,65 @@ impl<R: HeatRun> Planner<'_, R> {
             count: drops.len(),
             longest_wait_s: longest,
         };
+        Ok(())
+    }
+
+    /// Lay from the closing zone's dwell point to its first point, the points of the revolution
+    /// before read there (its [`Revolution::judged`] ones before `first`) kept safe by the
+    /// shortest dwell at the dwell point that does so, as a revolution's dwell keeps its points;
+    /// laid as they were planned, they went unjudged.
+    fn lead_in(&mut self, zone: usize) -> Result<(), ThermalError> {
+        let rev = self.revs[zone];
+        if self.cursor != rev.dwell_at || rev.judged_from >= rev.first {
+            return self.catch_up(rev.first);
+        }
+        let segment = Segment {
+            s: self.s,
+            judged: self.judged,
+            rev: Revolution {
+                end: rev.first,
+                judged_end: rev.first,
+                ..rev
+            },
+            seg_end: rev.first,
+            pace: self.pace,
+        };
+        let start = self.run.clone();
+        let unrested = segment.trial(start.clone(), &mut self.simulated)?;
+        let (dwell, run, why) = match unrested.1 {
+            None => (0.0, unrested.0, None),
+            Some((_, why)) => {
+                let mut cache = Vec::new();
+                let guess = self.last_dwell;
+                let smallest = segment.smallest_dwell(
+                    &start,
+                    &unrested,
+                    guess,
+                    &mut cache,
+                    &mut self.simulated,
+                )?;
+                let (d, x) = match smallest {
+                    Some(pass) => pass,
+                    None => {
+                        let max = self.s.dwell.max_dwell_s;
+                        let cool = cooled(&start, &mut cache, max)?;
+                        (max, segment.trial(cool, &mut self.simulated)?.0)
+                    }
+                };
+                (d, x, Some(why))
+            }
+        };
+        // A trial stops at its first risky point: lay what it left.
+        let mut run = run;
+        for i in run.laid().max(rev.dwell_at)..rev.first {
+            self.s.lay(&mut run, i, 0.0, self.pace)?;
+            self.simulated += 1;
+        }
+        self.run = run;
+        self.plan.cooling.dwell_s[rev.dwell_at] = dwell;
+        self.plan.reason[rev.dwell_at] = why;
+        self.plan.cooling.pace[rev.dwell_at..rev.first].fill(self.pace);
+        self.cursor = rev.first;
         Ok(())
     }
 
@@ -1125,8 +1218,7 @@ impl Segment<'_> {
             s.lay(&mut x, i, 0.0, self.pace)?;
             *simulated += 1;
             let risky = self.judged[i].iter().any(|&k| {
-                k >= rev.first
-                    && k < rev.end
+                rev.judged().contains(&k)
                     && s.judge(&x.points()[k], x.support(k), s.dwell.margin_k)
                         .is_some()
             });
@@ -1134,7 +1226,7 @@ impl Segment<'_> {
                 break;
             }
         }
-        let (risk, hottest) = check(s, &x, rev.first..rev.end, s.dwell.margin_k);
+        let (risk, hottest) = check(s, &x, rev.judged(), s.dwell.margin_k);
         Ok((x, risk, hottest))
     }
 
@@ -1152,7 +1244,7 @@ impl Segment<'_> {
         cache: &mut Vec<(f64, R)>,
         simulated: &mut usize,
     ) -> Result<Option<(f64, R)>, ThermalError> {
-        let aim = self.s.aim_k(&unrested.0, self.rev.first..self.rev.end);
+        let aim = self.s.aim_k(&unrested.0, self.rev.judged());
         // Each try cools on from the longest cooled state kept below its dwell ([`cooled`]):
         // the dwell's cooling is what the search costs on a large part, and the tries' dwells
         // overlap. Kept: the states a later try can start from, which lie between the longest
@@ -1421,6 +1513,41 @@ mod tests {
     use thermal::network::Surroundings;
     use thermal::wall::{WallModel, WallRun, WallSettings};
     use thermal::{HeatRun, Plate};
+
+    /// Each point is judged by the one stretch its preheat is read in: the last point of a
+    /// revolution read during the deposit that reads the next one's first (where the dwell
+    /// before that deposit cools both) is judged with the next revolution, not with its own,
+    /// whose stretch ends before it is read.
+    #[test]
+    fn a_point_is_judged_in_the_stretch_it_is_read_in() {
+        let layers = [0, 0, 0, 0, 1, 1, 1, 2, 2];
+        // Point 3 read with point 4, during deposit 3; points 6 and 7 each in their own.
+        let read = [
+            None,
+            Some(0),
+            Some(1),
+            Some(3),
+            Some(3),
+            Some(4),
+            Some(5),
+            Some(6),
+            Some(7),
+        ];
+        let revs = super::revolutions_read(&layers, &read);
+        let judged: Vec<_> = revs.iter().map(|r| r.judged()).collect();
+        assert_eq!(judged, [0..3, 3..7, 7..9]);
+        assert_eq!(
+            revs.iter().map(|r| r.dwell_at).collect::<Vec<_>>(),
+            [0, 3, 6]
+        );
+        for (r, rev) in revs.iter().enumerate() {
+            let end = revs.get(r + 1).map_or(usize::MAX, |n| n.dwell_at);
+            for k in rev.judged() {
+                let at = read[k].unwrap_or(0);
+                assert!((rev.dwell_at..end).contains(&at), "point {k} read at {at}");
+            }
+        }
+    }
 
     /// Trials of any order through the cache give the state one `cool(d)` gives, bit for bit.
     #[test]
