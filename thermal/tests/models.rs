@@ -27,6 +27,28 @@ fn plate() -> Plate {
     }
 }
 
+/// The thin wall on G3Si with nodes at least `min_node` long, m, every node at every step.
+fn wall_settings(min_node: f64, watch_metal: bool) -> WallSettings {
+    WallSettings {
+        material: Material::g3si(),
+        surroundings: surroundings(),
+        plate: plate(),
+        min_node,
+        deposit_temperature: 1823.15,
+        footprint: 6e-3,
+        lead: 10e-3,
+        hot_threshold: 873.15,
+        max_step: 30.0,
+        probes: vec![],
+        probe_every: 0.0,
+        snapshot_times: vec![],
+        traces: vec![],
+        watch_metal,
+        local_steps: None,
+        merge_plate: true,
+    }
+}
+
 /// Mean preheat per revolution.
 fn per_revolution(pre: &[f64], n: usize) -> Vec<f64> {
     pre.chunks(n)
@@ -40,24 +62,7 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     // 6 mm bead: three 2 mm voxels, so both models lay the same metal.
     let deps = helix(0.06, n, layers, 2e-3, 6e-3, 10e-3, 0.85 * 2000.0);
     let material = Material::g3si();
-    let ws = WallSettings {
-        material: material.clone(),
-        surroundings: surroundings(),
-        plate: plate(),
-        min_node: 3e-3,
-        deposit_temperature: 1823.15,
-        footprint: 6e-3,
-        lead: 10e-3,
-        hot_threshold: 873.15,
-        max_step: 30.0,
-        probes: vec![],
-        probe_every: 0.0,
-        snapshot_times: vec![],
-        traces: vec![],
-        watch_metal: true,
-        local_steps: None,
-        merge_plate: true,
-    };
+    let ws = wall_settings(3e-3, true);
     let wall = WallModel::build(&deps, &ws)
         .unwrap()
         .run(&deps, &ws, 0.0)
@@ -178,24 +183,7 @@ fn deposits_a_little_under_a_node_read_as_with_a_node_each() {
     // R 60 mm, 135 deposits a revolution: 2.79 mm chords.
     let deps = helix(0.06, 135, 6, 2e-3, 5e-3, 10e-3, 0.85 * 2000.0);
     let run = |min_node: f64| {
-        let ws = WallSettings {
-            material: Material::g3si(),
-            surroundings: surroundings(),
-            plate: plate(),
-            min_node,
-            deposit_temperature: 1823.15,
-            footprint: 6e-3,
-            lead: 10e-3,
-            hot_threshold: 873.15,
-            max_step: 30.0,
-            probes: vec![],
-            probe_every: 0.0,
-            snapshot_times: vec![],
-            traces: vec![],
-            watch_metal: false,
-            local_steps: None,
-            merge_plate: true,
-        };
+        let ws = wall_settings(min_node, false);
         WallModel::build(&deps, &ws)
             .unwrap()
             .run(&deps, &ws, 0.0)
