@@ -93,21 +93,22 @@ impl Criteria {
     pub fn breach(&self, p: &PointResult, risk: Risk) -> String {
         let limit_c = |l: Option<f64>| l.map_or(f64::NAN, celsius);
         match risk {
-            Risk::Interpass => format!(
-                "preheat {:.1} °C over the {:.0} °C interpass limit",
-                celsius(p.preheat),
-                limit_c(self.interpass_max_k)
-            ),
-            Risk::Strength => format!(
-                "preheat {:.1} °C over the {:.0} °C strength-loss limit",
-                celsius(p.preheat),
-                limit_c(self.strength_loss_k)
-            ),
-            Risk::Humping => format!(
-                "melt pool {:.1} mm over the {:.1} mm humping limit",
-                p.pool_length * 1e3,
-                self.humping_pool_m.map_or(f64::NAN, |l| l * 1e3)
-            ),
+            Risk::Interpass => {
+                let (t, limit) = (celsius(p.preheat), limit_c(self.interpass_max_k));
+                let d = decimals_over(t, limit);
+                format!("preheat {t:.d$} °C over the {limit:.0} °C interpass limit")
+            }
+            Risk::Strength => {
+                let (t, limit) = (celsius(p.preheat), limit_c(self.strength_loss_k));
+                let d = decimals_over(t, limit);
+                format!("preheat {t:.d$} °C over the {limit:.0} °C strength-loss limit")
+            }
+            Risk::Humping => {
+                let pool = p.pool_length * 1e3;
+                let limit = self.humping_pool_m.map_or(f64::NAN, |l| l * 1e3);
+                let d = decimals_over(pool, limit);
+                format!("melt pool {pool:.d$} mm over the {limit:.d$} mm humping limit")
+            }
             Risk::Bond => {
                 let (bo, max) = self.bond.map_or((f64::NAN, f64::NAN), |b| {
                     let bo = bond_number(b.density_kg_m3, p.pool_radius, b.surface_tension_n_m);
@@ -120,6 +121,18 @@ impl Criteria {
             }
         }
     }
+}
+
+/// The decimals, one to three, at which `value` reads above `limit` rounded alike: a value a
+/// hair over its limit read "melt pool 15.7 mm over the 15.7 mm humping limit" (a canister's
+/// 15.748 mm against π × 5 mm) or "preheat 200.0 °C over the 200 °C interpass limit".
+fn decimals_over(value: f64, limit: f64) -> usize {
+    (1..=3)
+        .find(|&d| {
+            let f = 10f64.powi(d as i32);
+            (value * f).round() > (limit * f).round()
+        })
+        .unwrap_or(1)
 }
 
 /// The preheat under which point `p` no longer breaks `risk`, K: what a dwell that cools the
@@ -282,6 +295,20 @@ mod tests {
         ] {
             assert_eq!(c.breach(&p, risk), said);
         }
+        // A hair over the limit reads over it.
+        let close = PointResult {
+            preheat: 473.19,
+            pool_length: 15.748e-3,
+            ..p
+        };
+        assert_eq!(
+            c.breach(&close, Risk::Humping),
+            "melt pool 15.75 mm over the 15.71 mm humping limit"
+        );
+        assert_eq!(
+            c.breach(&close, Risk::Interpass),
+            "preheat 200.04 °C over the 200 °C interpass limit"
+        );
     }
 
     /// A leaning dome on an elliptic base (`scenarios/leaning_elliptic_dome.toml`, 70 × 45 mm,
