@@ -857,18 +857,7 @@ impl<R: HeatRun> Planner<'_, R> {
         let Some((_, why)) = unrested.1 else {
             return self.keep(stretch, 1.0, unrested.0, None, start);
         };
-        let guess = self.last_dwell;
-        let mut cache = Vec::new();
-        let smallest =
-            segment.smallest_dwell(&start, &unrested, guess, &mut cache, &mut self.simulated)?;
-        let (d, x) = match smallest {
-            Some(pass) => pass,
-            None => {
-                let max = s.dwell.max_dwell_s;
-                let cool = cooled(&start, &mut cache, max)?;
-                (max, segment.trial(cool, &mut self.simulated)?.0)
-            }
-        };
+        let (d, x) = self.rested(&segment, &start, &unrested)?;
         self.plan.cooling.dwell_s[rev.dwell_at] = d;
         self.plan.reason[rev.dwell_at] = Some(why);
         self.last_dwell = d;
@@ -1089,6 +1078,27 @@ impl<R: HeatRun> Planner<'_, R> {
         Ok(())
     }
 
+    /// `segment` laid from `start` after the shortest dwell that keeps it safe, or after the
+    /// longest dwell where none does: the dwell and the run. `unrested`: its trial with none.
+    fn rested(
+        &mut self,
+        segment: &Segment,
+        start: &R,
+        unrested: &Trial<R>,
+    ) -> Result<(f64, R), ThermalError> {
+        let (guess, mut cache) = (self.last_dwell, Vec::new());
+        let smallest =
+            segment.smallest_dwell(start, unrested, guess, &mut cache, &mut self.simulated)?;
+        match smallest {
+            Some(pass) => Ok(pass),
+            None => {
+                let max = self.s.dwell.max_dwell_s;
+                let cool = cooled(start, &mut cache, max)?;
+                Ok((max, segment.trial(cool, &mut self.simulated)?.0))
+            }
+        }
+    }
+
     /// Lay from the closing zone's dwell point to its first point, the points of the revolution
     /// before read there (its [`Revolution::judged`] ones before `first`) kept safe by the
     /// shortest dwell at the dwell point that does so, as a revolution's dwell keeps its points;
@@ -1114,23 +1124,7 @@ impl<R: HeatRun> Planner<'_, R> {
         let (dwell, run, why) = match unrested.1 {
             None => (0.0, unrested.0, None),
             Some((_, why)) => {
-                let mut cache = Vec::new();
-                let guess = self.last_dwell;
-                let smallest = segment.smallest_dwell(
-                    &start,
-                    &unrested,
-                    guess,
-                    &mut cache,
-                    &mut self.simulated,
-                )?;
-                let (d, x) = match smallest {
-                    Some(pass) => pass,
-                    None => {
-                        let max = self.s.dwell.max_dwell_s;
-                        let cool = cooled(&start, &mut cache, max)?;
-                        (max, segment.trial(cool, &mut self.simulated)?.0)
-                    }
-                };
+                let (d, x) = self.rested(&segment, &start, &unrested)?;
                 (d, x, Some(why))
             }
         };
