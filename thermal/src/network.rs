@@ -58,13 +58,15 @@ impl Ledger {
     }
 }
 
-/// Cloning is a checkpoint: the state (enthalpy, temperature, activity, exposure, ledger) is
-/// copied, the structure (material, masses, adjacency) shared.
+/// Cloning is a checkpoint: the state (enthalpy, temperature, activity, mass laid, exposure,
+/// ledger) is copied, the structure (material, adjacency) shared.
 #[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct Network {
     pub material: Arc<Material>,
     pub surroundings: Surroundings,
-    pub mass: Arc<Vec<f64>>,
+    /// Mass of each node, kg: of a node switched on, the metal laid in it so far ([`Network::lay`]);
+    /// of one not yet on, what it holds whole.
+    pub mass: Vec<f64>,
     /// Exposed area for convection and radiation, m².
     pub exposed: Vec<f64>,
     /// Area in contact with the table, m².
@@ -208,7 +210,7 @@ impl Network {
             active: vec![false; n],
             material: Arc::new(material),
             surroundings,
-            mass: Arc::new(mass),
+            mass,
             exposed,
             contact: Arc::new(contact),
             start: Arc::new(count),
@@ -252,6 +254,27 @@ impl Network {
             *last = t;
         }
         self.ledger.deposited += self.mass[i] * (self.h[i] - self.h_ambient);
+    }
+
+    /// Lay `dm` kg of metal at temperature `t` into node i: a node not yet on is switched on
+    /// holding just that; one on takes it in, their enthalpies mixed. What the metal brings
+    /// above ambient is booked. A node of several deposits is laid in their shares, so that it
+    /// holds the heat of only the metal laid so far (docs/PHYSICS.md "Nodes of several
+    /// deposits").
+    pub fn lay(&mut self, i: usize, dm: f64, t: f64) {
+        if !self.active[i] {
+            self.mass[i] = dm;
+            self.activate(i, t);
+            return;
+        }
+        let (m, h) = (self.mass[i], self.material.enthalpy(t));
+        self.h[i] = (m * self.h[i] + dm * h) / (m + dm);
+        self.mass[i] = m + dm;
+        self.t[i] = self.material.temperature(self.h[i]);
+        if let Some(last) = self.scratch.last_t.get_mut(i) {
+            *last = self.t[i];
+        }
+        self.ledger.deposited += dm * (h - self.h_ambient);
     }
 
     /// Every active node at ambient at once, the heat taken out booked as quenched.

@@ -579,7 +579,6 @@ impl HeatRun for WallRun {
         let m = &mut self.model;
         let node = m.node_of[i];
         if m.layout_first[node] == i {
-            m.network.activate(node, t_deposit);
             let b = self.below[i];
             if b < m.n_wall {
                 let covered = m.top[b].min(m.network.exposed[b]);
@@ -587,7 +586,11 @@ impl HeatRun for WallRun {
                 m.top[b] = 0.0;
             }
         }
-        let seg_mass = m.network.mass[node] * segment_share(deps, i, &m.length, &m.node_of);
+        let seg_mass = m.lay(
+            node,
+            segment_share(deps, i, &m.length, &m.node_of),
+            t_deposit,
+        );
         let mut q = burn.heat - seg_mass * (self.h_deposit - self.h_ambient);
         if q < 0.0 {
             q = 0.0;
@@ -834,6 +837,32 @@ fn beneath(
             around.iter().map(|&(c, a)| a * t[c]).sum::<f64>() / w
         }
         _ => t[below[k]],
+    }
+}
+
+impl WallModel {
+    /// Lay `share` of wall node `node` at temperature `t`: its mass and its faces grow with the
+    /// metal laid, so that a node of several deposits holds, and loses heat from, only what the
+    /// torch has laid of it (docs/PHYSICS.md "Nodes of several deposits"). The mass laid, kg.
+    fn lay(&mut self, node: usize, share: f64, t: f64) -> f64 {
+        let net = &mut self.network;
+        let whole = net.material.density * self.volume[node];
+        let laid = if net.active[node] {
+            net.mass[node] / whole
+        } else {
+            0.0
+        };
+        let share = share.min(1.0 - laid).max(0.0);
+        // Its faces as built are the whole node's; the layer above covers its top only once
+        // the node is whole (the path comes back to it a revolution later).
+        let faces = if laid > 0.0 {
+            net.exposed[node] / laid
+        } else {
+            net.exposed[node]
+        };
+        net.exposed[node] = faces * (laid + share);
+        net.lay(node, share * whole, t);
+        share * whole
     }
 }
 
