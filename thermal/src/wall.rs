@@ -287,6 +287,9 @@ impl WallModel {
                 }
             }
         }
+        for (k, around) in along_below(deps, &l, &below, s.lead) {
+            plate_at.insert(k, around);
+        }
         let mut pairs: Vec<_> = contact_edges.into_iter().collect();
         pairs.sort_by_key(|(k, _)| *k);
         for ((a, b), (area, gap)) in pairs {
@@ -838,6 +841,54 @@ fn beneath(
         }
         _ => t[below[k]],
     }
+}
+
+/// What a deposit laid on the wall reads: its support's node and that node's neighbour along
+/// the bead on the point's side, the temperature linear between their centres (as the pool
+/// reads it), where both are whole when the point is read (`lead` upstream). Read from its
+/// node alone, a node of several deposits gave each of them one temperature, and the next
+/// node's points another: a staircase along the revolution (docs/PHYSICS.md "Nodes of several
+/// deposits").
+fn along_below(
+    deps: &[Deposit],
+    l: &Layout,
+    below: &[usize],
+    lead: f64,
+) -> Vec<(usize, Vec<(usize, f64)>)> {
+    let nw = l.first.len();
+    let reads = read_fractions(deps, lead);
+    // Node n is whole once the deposit after its last is laid.
+    let whole_by = |n: usize| l.first.get(n + 1).copied().unwrap_or(deps.len());
+    let joined = |a: usize, b: usize| deps[l.first[a.max(b)]].start.is_none();
+    let mut out = Vec::new();
+    for (k, d) in deps.iter().enumerate() {
+        let (Some(_), Some((j, _))) = (d.support, reads[k]) else {
+            continue;
+        };
+        let u = below[k];
+        if u >= nw || whole_by(u) > j {
+            continue;
+        }
+        let c = l.centre[u];
+        let side = [u.checked_sub(1), (u + 1 < nw).then_some(u + 1)]
+            .into_iter()
+            .flatten()
+            .filter(|&n| joined(u, n) && whole_by(n) <= j)
+            .map(|n| {
+                let e: [f64; 3] = std::array::from_fn(|q| l.centre[n][q] - c[q]);
+                let r: [f64; 3] = std::array::from_fn(|q| d.position[q] - c[q]);
+                let ee = e.iter().map(|x| x * x).sum::<f64>().max(1e-18);
+                (
+                    n,
+                    (e.iter().zip(r).map(|(a, b)| a * b).sum::<f64>() / ee).clamp(0.0, 1.0),
+                )
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((n, f)) = side.filter(|s| s.1 > 0.0) {
+            out.push((k, vec![(u, 1.0 - f), (n, f)]));
+        }
+    }
+    out
 }
 
 impl WallModel {

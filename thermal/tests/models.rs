@@ -253,10 +253,14 @@ fn a_node_of_several_deposits_takes_its_metal_as_laid() {
     assert!(worst < 1e-9, "{worst} deposits' heat off the schedule");
 }
 
-/// The pool behind the torch counts the torch's own node as far as laid: counted whole, the
-/// pool jumped by the node's unlaid length at each node's first deposit.
+/// Nodes of five deposits read as smoothly as a node a deposit: the pool behind the torch
+/// counts the torch's own node as far as laid (counted whole, it jumped by the node's unlaid
+/// length at each node's first deposit), and a point's preheat is read linear between the
+/// centres of the node under it and that node's neighbour (read from the node alone, the points
+/// of one node read one temperature and the next node's another, a staircase along the
+/// revolution; docs/PHYSICS.md "Nodes of several deposits").
 #[test]
-fn the_pool_grows_with_the_node_the_torch_lays() {
+fn nodes_of_five_deposits_read_as_smoothly_as_a_node_a_deposit() {
     let deps = fine_ring();
     let run = |min_node: f64| {
         let ws = wall_settings(min_node, false);
@@ -267,19 +271,25 @@ fn the_pool_grows_with_the_node_the_torch_lays() {
             .points
     };
     let (fine, default) = (run(0.5e-3), run(3e-3));
-    // Revolutions 3-6: the largest departure of a point's pool from its neighbours' mean, mm.
-    let jitter = |p: &[PointResult]| {
+    // Revolutions 3-6: the largest departure of a point's value from its neighbours' mean.
+    let jitter = |v: &dyn Fn(&PointResult) -> f64, p: &[PointResult]| {
         (1080..p.len() - 1)
-            .map(|i| {
-                1e3 * (p[i].pool_length - 0.5 * (p[i - 1].pool_length + p[i + 1].pool_length)).abs()
-            })
+            .map(|i| (v(&p[i]) - 0.5 * (v(&p[i - 1]) + v(&p[i + 1]))).abs())
             .fold(0.0, f64::max)
     };
-    let mean = |p: &[PointResult]| {
-        1e3 * p[1080..].iter().map(|q| q.pool_length).sum::<f64>() / (p.len() - 1080) as f64
-    };
-    let (jf, jd, mf, md) = (jitter(&fine), jitter(&default), mean(&fine), mean(&default));
-    eprintln!("pool jitter {jd:.2} mm, mean {md:.2} mm; a node a deposit: {jf:.2} mm, {mf:.2} mm");
+    let pool = |p: &PointResult| p.pool_length * 1e3;
+    let pre = |p: &PointResult| p.preheat;
+    let mean =
+        |p: &[PointResult]| p[1080..].iter().map(pool).sum::<f64>() / (p.len() - 1080) as f64;
+    let (jf, jd) = (jitter(&pool, &fine), jitter(&pool, &default));
+    let (mf, md) = (mean(&fine), mean(&default));
+    let (pf, pd) = (jitter(&pre, &fine), jitter(&pre, &default));
+    eprintln!(
+        "pool jitter {jd:.2} mm, mean {md:.2} mm, preheat jitter {pd:.2} K; a node a deposit: \
+         {jf:.2} mm, {mf:.2} mm, {pf:.2} K"
+    );
+    // Read from the node under it alone (before 2026-12-02): 1.69 K. A node a deposit: 0.02 K.
+    assert!(pd < 1.0, "preheat jitter {pd} K");
     // Counted whole (before 2026-12-02): 2.61 mm. A node a deposit: 0.27 mm.
     assert!(jd < 1.5, "pool jitter {jd} mm");
     // The nodes' own resolution: 3 mm nodes read the pool 1.8 mm short of a node a deposit
