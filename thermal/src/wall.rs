@@ -164,10 +164,12 @@ pub struct WallModel {
     top: Vec<f64>,
     /// Per deposit: the node it is laid on (a wall node or a plate cell).
     below: Vec<usize>,
-    /// Per deposit laid on the plate: the plate's top at its point, the cells round it each
-    /// with its weight ([`PlateCells::top_around`]), what its preheat reads.
-    #[serde(default)]
-    plate_at: BTreeMap<usize, Vec<(usize, f64)>>,
+    /// What a deposit's preheat reads where more than the node under it: laid on the plate,
+    /// the plate's top at its point, the cells round it each with its weight
+    /// ([`PlateCells::top_around`]); laid on the wall, the node under it and its neighbour along
+    /// the bead, linear between their centres ([`along_below`]).
+    #[serde(default, alias = "plate_at")]
+    read_at: BTreeMap<usize, Vec<(usize, f64)>>,
     length: Arc<Vec<f64>>,
     volume: Arc<Vec<f64>>,
 }
@@ -239,7 +241,7 @@ impl WallModel {
         }
         // To what each deposit is laid on: one edge per pair of nodes, the contact area summed.
         let mut below = Vec::with_capacity(deps.len());
-        let mut plate_at = BTreeMap::new();
+        let mut read_at = BTreeMap::new();
         let mut contact_edges: HashMap<(usize, usize), (f64, f64)> = HashMap::new(); // area, length
         for (i, d) in deps.iter().enumerate() {
             let me = l.node_of[i];
@@ -273,7 +275,7 @@ impl WallModel {
             below.push(under);
             if d.support.is_none() {
                 let around = plate.top_around(d.position[0], d.position[1]);
-                plate_at.insert(i, around.into_iter().map(|(c, w)| (nw + c, w)).collect());
+                read_at.insert(i, around.into_iter().map(|(c, w)| (nw + c, w)).collect());
             }
             for (c, share) in contacts {
                 if c != me {
@@ -288,7 +290,7 @@ impl WallModel {
             }
         }
         for (k, around) in along_below(deps, &l, &below, s.lead) {
-            plate_at.insert(k, around);
+            read_at.insert(k, around);
         }
         let mut pairs: Vec<_> = contact_edges.into_iter().collect();
         pairs.sort_by_key(|(k, _)| *k);
@@ -318,7 +320,7 @@ impl WallModel {
             plate_side: Arc::new(plate_side),
             top,
             below,
-            plate_at,
+            read_at,
             length: Arc::new(l.length),
             volume: Arc::new(volume),
         })
@@ -370,9 +372,9 @@ pub struct WallRun {
     /// Where the torch will be, where the nodes far from the arc step at their own rates.
     reach: Option<Arc<Reach>>,
     below: Arc<Vec<usize>>,
-    /// What a deposit laid on the plate reads ([`WallModel::plate_at`]).
-    #[serde(default)]
-    plate_at: Arc<BTreeMap<usize, Vec<(usize, f64)>>>,
+    /// What a deposit's preheat reads where more than the node under it ([`WallModel::read_at`]).
+    #[serde(default, alias = "plate_at")]
+    read_at: Arc<BTreeMap<usize, Vec<(usize, f64)>>>,
     /// Time now, s; deposits laid so far.
     now: f64,
     laid: usize,
@@ -401,7 +403,7 @@ impl WallRun {
             }
         }
         let below = std::mem::take(&mut model.below);
-        let plate_at = std::mem::take(&mut model.plate_at);
+        let read_at = std::mem::take(&mut model.read_at);
         let reach = s.local_steps.map(|local| {
             model.network.local_steps(local);
             let from: Vec<[f64; 3]> = (0..deps.len()).map(|i| segment_start(deps, i)).collect();
@@ -432,7 +434,7 @@ impl WallRun {
             powered: Vec::new(),
             reach,
             below: Arc::new(below),
-            plate_at: Arc::new(plate_at),
+            read_at: Arc::new(read_at),
             now: deps.first().map_or(0.0, |d| d.arc_start()),
             laid: 0,
             underpowered: 0,
@@ -570,9 +572,9 @@ impl HeatRun for WallRun {
     ) -> Result<(), ThermalError> {
         let burn = Burn::or_scheduled(burn, &self.deps[i], i)?;
         self.cool(dwell)?;
-        let (t, below, plate_at) = (&self.model.network.t, &self.below, &self.plate_at);
+        let (t, below, read_at) = (&self.model.network.t, &self.below, &self.read_at);
         self.drops
-            .before(&self.deps, i, burn.drop, |k| beneath(t, below, plate_at, k));
+            .before(&self.deps, i, burn.drop, |k| beneath(t, below, read_at, k));
         // Laid from here on: the arc's step below observes it.
         self.laid = i + 1;
         let deps = Arc::clone(&self.deps);
@@ -607,7 +609,7 @@ impl HeatRun for WallRun {
         // Preheats read during this arc: interpolated between its start and its end.
         let before: Vec<f64> = self.probes_at[i]
             .iter()
-            .map(|&(k, _)| beneath(&m.network.t, &self.below, &self.plate_at, k))
+            .map(|&(k, _)| beneath(&m.network.t, &self.below, &self.read_at, k))
             .collect();
         let arc = burn.arc_time;
         if arc > 0.0 {
@@ -648,7 +650,7 @@ impl HeatRun for WallRun {
             } else {
                 f
             };
-            let t1 = beneath(&self.model.network.t, &self.below, &self.plate_at, k);
+            let t1 = beneath(&self.model.network.t, &self.below, &self.read_at, k);
             self.points[k].preheat = t0 + f * (t1 - t0);
         }
         if let Some(t) = self.drops.after(i, burn.drop) {
@@ -752,7 +754,7 @@ impl HeatRun for WallRun {
     }
 
     fn temperature_beneath(&self, i: usize) -> f64 {
-        beneath(&self.model.network.t, &self.below, &self.plate_at, i)
+        beneath(&self.model.network.t, &self.below, &self.read_at, i)
     }
 
     fn temperature_of(&self, i: usize) -> f64 {
@@ -825,16 +827,17 @@ impl Torch for TorchOnPath<'_> {
     }
 }
 
-/// The temperature of what deposit k lies on: its support's node, or the plate's top at its
-/// point (`plate_at`: the cells round it interpolated; the one cell that holds the point made
-/// a first revolution's preheats alternate by 12 K as the points crossed the cells).
+/// The temperature of what deposit k lies on: its support's node, read along the bead between
+/// it and its neighbour where both are whole, or the plate's top at its point (`read_at`: the
+/// cells round it interpolated; the one cell that holds the point made a first revolution's
+/// preheats alternate by 12 K as the points crossed the cells).
 fn beneath(
     t: &[f64],
     below: &[usize],
-    plate_at: &BTreeMap<usize, Vec<(usize, f64)>>,
+    read_at: &BTreeMap<usize, Vec<(usize, f64)>>,
     k: usize,
 ) -> f64 {
-    match plate_at.get(&k) {
+    match read_at.get(&k) {
         Some(around) if !around.is_empty() => {
             let w: f64 = around.iter().map(|a| a.1).sum();
             around.iter().map(|&(c, a)| a * t[c]).sum::<f64>() / w
