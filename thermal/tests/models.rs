@@ -173,6 +173,24 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     }
 }
 
+/// The points of the thin wall's run of `deps` with nodes at least `min_node` long, m.
+fn wall_points(deps: &[Deposit], min_node: f64) -> Vec<PointResult> {
+    let ws = wall_settings(min_node, false);
+    WallModel::build(deps, &ws)
+        .unwrap()
+        .run(deps, &ws, 0.0)
+        .unwrap()
+        .points
+}
+
+/// The largest departure of a point's value `v` from its neighbours' mean, over `p` less its
+/// ends.
+fn jitter(v: &dyn Fn(&PointResult) -> f64, p: &[PointResult]) -> f64 {
+    (1..p.len() - 1)
+        .map(|i| (v(&p[i]) - 0.5 * (v(&p[i - 1]) + v(&p[i + 1]))).abs())
+        .fold(0.0, f64::max)
+}
+
 /// The thin wall on a ring whose deposits are a little under `min_node` (2.8 mm on 3 mm, as a
 /// canister 100 × 80 mm cut by 106 generators): its nodes were grown to at least `min_node`,
 /// two deposits each, one temperature laid whole at the first; neighbouring points' preheats
@@ -182,36 +200,25 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
 fn deposits_a_little_under_a_node_read_as_with_a_node_each() {
     // R 60 mm, 135 deposits a revolution: 2.79 mm chords.
     let deps = helix(0.06, 135, 6, 2e-3, 5e-3, 10e-3, 0.85 * 2000.0);
-    let run = |min_node: f64| {
-        let ws = wall_settings(min_node, false);
-        WallModel::build(&deps, &ws)
-            .unwrap()
-            .run(&deps, &ws, 0.0)
-            .unwrap()
-            .points
-    };
+    let run = |min_node: f64| wall_points(&deps, min_node);
     let (fine, default) = (run(1e-3), run(3e-3));
-    // Revolutions 2-5: the largest departure of a point from its neighbours' mean.
-    let jitter = |v: &dyn Fn(&PointResult) -> f64, p: &[PointResult]| {
-        (270..p.len() - 1)
-            .map(|i| (v(&p[i]) - 0.5 * (v(&p[i - 1]) + v(&p[i + 1]))).abs())
-            .fold(0.0, f64::max)
-    };
+    // Revolutions 2-5.
+    let (fine, default) = (&fine[269..], &default[269..]);
     let pre = |p: &PointResult| p.preheat;
     let pool = |p: &PointResult| p.pool_length * 1e3;
-    let longest = |p: &[PointResult]| p[270..].iter().map(pool).fold(0.0, f64::max);
-    let (jp, jl) = (jitter(&pre, &default), jitter(&pool, &default));
-    let (lf, ld) = (longest(&fine), longest(&default));
+    let longest = |p: &[PointResult]| p[1..].iter().map(pool).fold(0.0, f64::max);
+    let (jp, jl) = (jitter(&pre, default), jitter(&pool, default));
+    let (lf, ld) = (longest(fine), longest(default));
     eprintln!(
         "3 mm nodes: preheat jitter {jp:.2} K, pool jitter {jl:.2} mm, longest pool {ld:.2} mm; \
          a node a deposit: {:.2} K, {:.2} mm, {lf:.2} mm",
-        jitter(&pre, &fine),
-        jitter(&pool, &fine)
+        jitter(&pre, fine),
+        jitter(&pool, fine)
     );
     // Nodes of two (before 2026-12-02): 21.4 K, 4.9 mm, 20.0 mm against 12.7 mm.
     assert!(jp < 2.0, "preheat jitter {jp} K");
     // The pool's own jitter on this ring, a node a deposit: 2.1 mm (4.9 mm with nodes of two).
-    let jf = jitter(&pool, &fine);
+    let jf = jitter(&pool, fine);
     assert!(jl < jf + 0.5, "pool jitter {jl} mm against {jf} mm");
     assert!(
         (ld - lf).abs() < 1.0,
@@ -262,28 +269,16 @@ fn a_node_of_several_deposits_takes_its_metal_as_laid() {
 #[test]
 fn nodes_of_five_deposits_read_as_smoothly_as_a_node_a_deposit() {
     let deps = fine_ring();
-    let run = |min_node: f64| {
-        let ws = wall_settings(min_node, false);
-        WallModel::build(&deps, &ws)
-            .unwrap()
-            .run(&deps, &ws, 0.0)
-            .unwrap()
-            .points
-    };
+    let run = |min_node: f64| wall_points(&deps, min_node);
     let (fine, default) = (run(0.5e-3), run(3e-3));
-    // Revolutions 3-6: the largest departure of a point's value from its neighbours' mean.
-    let jitter = |v: &dyn Fn(&PointResult) -> f64, p: &[PointResult]| {
-        (1080..p.len() - 1)
-            .map(|i| (v(&p[i]) - 0.5 * (v(&p[i - 1]) + v(&p[i + 1]))).abs())
-            .fold(0.0, f64::max)
-    };
+    // Revolutions 3-6.
+    let (fine, default) = (&fine[1079..], &default[1079..]);
     let pool = |p: &PointResult| p.pool_length * 1e3;
     let pre = |p: &PointResult| p.preheat;
-    let mean =
-        |p: &[PointResult]| p[1080..].iter().map(pool).sum::<f64>() / (p.len() - 1080) as f64;
-    let (jf, jd) = (jitter(&pool, &fine), jitter(&pool, &default));
-    let (mf, md) = (mean(&fine), mean(&default));
-    let (pf, pd) = (jitter(&pre, &fine), jitter(&pre, &default));
+    let mean = |p: &[PointResult]| p[1..].iter().map(pool).sum::<f64>() / (p.len() - 1) as f64;
+    let (jf, jd) = (jitter(&pool, fine), jitter(&pool, default));
+    let (mf, md) = (mean(fine), mean(default));
+    let (pf, pd) = (jitter(&pre, fine), jitter(&pre, default));
     eprintln!(
         "pool jitter {jd:.2} mm, mean {md:.2} mm, preheat jitter {pd:.2} K; a node a deposit: \
          {jf:.2} mm, {mf:.2} mm, {pf:.2} K"
