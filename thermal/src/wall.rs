@@ -641,7 +641,7 @@ impl HeatRun for WallRun {
             self.observe();
         }
         for (&(k, f), t0) in self.probes_at[i].iter().zip(before) {
-            // The step lays its node whole at its start: a point of that node (its segment
+            // The step lays its share of its node at its start: a point of that node (its segment
             // longer than the lead) is read before the step, as the torch, still upstream,
             // has not laid metal over it; interpolated, the reading took a share of that
             // metal's heat (docs/PHYSICS.md "The preheat of a long deposit").
