@@ -469,8 +469,16 @@ fn write(
         }
         summary["ratio_to_wait_until_cool"] = json!(total / wait_total.max(1e-9));
     }
+    // The pools the search planned against, where the voxel grid may have made them.
+    let for_pools = (0..pl.points.len())
+        .filter(|&i| c.dwell_s[i] > 0.0 && c.drop[i].is_none())
+        .filter(|&i| matches!(plan.reason[i], Some(risk::Risk::Humping | risk::Risk::Bond)))
+        .count();
+    let run = " of the run without dwells";
+    let pools = super::simulate::coarse_pool(b, before, run, Some((for_pools, count)));
+    summary["warnings"] = json!(super::simulate::warnings_json(&[], pools.as_slice()));
     super::plan::write_plan(dir, s, b)?;
-    for w in write_thermal(dir, b, after)? {
+    for w in pools.iter().chain(&write_thermal(dir, b, after)?) {
         eprintln!("{}", w.line);
     }
     let dwelled = super::simulate::Dwelled {

@@ -148,10 +148,30 @@ pub fn warnings_json(
         .collect()
 }
 
+/// The warning where a voxel run's first point at risk is judged by its pool on cells as tall
+/// as the beads ([`resolution::coarse_pool`]); `run` names the run in the line, `dwells` the
+/// plan's dwells for pools and all of them.
+pub fn coarse_pool(
+    b: &Build,
+    sim: &Simulation,
+    run: &str,
+    dwells: Option<(usize, usize)>,
+) -> Option<resolution::Warning> {
+    if !matches!(sim.result.cells, Cells::Voxel { .. }) {
+        return None;
+    }
+    let voxel_m = b.params.thermal.voxel_m;
+    let found = resolution::coarse_pool(&b.criteria, &sim.result.points, b.deposits(), voxel_m);
+    found.map(|p| resolution::Warning {
+        kind: "coarse_pool",
+        line: p.line("thermal.voxel_mm", run, dwells),
+    })
+}
+
 /// thermal.json, layers.csv, and path.csv again with times, dwells and per-point results.
 /// thermal.json's `warnings` are those the run earned before it started (shown with its
-/// estimate) and after (the voxel grid's metal against the beads'); the latter are returned, for
-/// the command to show.
+/// estimate) and after (the voxel grid's metal against the beads', a pool judged on its cells);
+/// the latter are returned, for the command to show.
 pub fn write_thermal(
     dir: &mut RunDir,
     b: &Build,
@@ -198,6 +218,7 @@ pub fn write_thermal(
         .and_then(resolution::Metal::warning)
         .into_iter()
         .chain(resolution::infeasible(pl, &zone, window_mm))
+        .chain(coarse_pool(b, sim, "", None))
         .collect();
     let before = resolution::before_run(&params.thermal, b.deposits(), "thermal.voxel_mm");
     let warnings = warnings_json(&before, &after);

@@ -8,19 +8,22 @@
 //! against the metal the beads hold ([`metal`]): a path inside the plate, or beads thinner than
 //! half a voxel, lay none, and the run heats a part that is not there; and its edge is held
 //! against the beads' height ([`coarse_voxels`]): a cell much taller than a layer lays the
-//! layers in lumps. On either model, beads on nothing but the plate far above its top
+//! layers in lumps, and one about as tall reads pools long where the beads climb past a layer
+//! of cells ([`coarse_pool`]). On either model, beads on nothing but the plate far above its top
 //! ([`floating`]) are laid on the plate all the same: a logged path in the machine's frame.
 
 use crate::pipeline::params::{ThermalModel, ThermalSettings};
-use thermal::run::{Cells, RunResult};
+use crate::pipeline::risk::{Criteria, Risk, judge};
+use thermal::run::{Cells, PointResult, RunResult};
 use thermal::schedule::{Deposit, arc_lengths, bead_volume, segment_start};
 
 /// One of the warnings below, as a command shows it (`line`) and as the outputs name it
 /// (`kind`: thermal.json's and replay.json's `warnings`, a study's summary.csv).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
-    /// The function that found it: `coarse_deposits`, `coarse_voxels`, `floating_path`,
-    /// `metal_off`, `plan_infeasible`, or of a replay's readings ([`crate::pipeline::replay::doubts`])
+    /// The function that found it: `coarse_deposits`, `coarse_pool`, `coarse_voxels`,
+    /// `floating_path`, `metal_off`, `plan_infeasible`, or of a replay's readings
+    /// ([`crate::pipeline::replay::doubts`])
     /// `probe_clock`, `probe_empty`, `probe_unread` or `probe_unit`.
     pub kind: &'static str,
     pub line: String,
@@ -306,6 +309,12 @@ impl CoarseVoxels {
 /// The voxel edge `voxel_m` against `deps`' beads, where it is over 1.4 times their median
 /// height. A skeleton's drops are not layers and are left out.
 pub fn coarse_voxels(deps: &[Deposit], voxel_m: f64) -> Option<CoarseVoxels> {
+    let height_m = bead_height(deps)?;
+    (voxel_m > VOXELS_PER_LAYER * height_m).then_some(CoarseVoxels { voxel_m, height_m })
+}
+
+/// The beads' median height, m, a skeleton's drops left out (None where no bead has one).
+fn bead_height(deps: &[Deposit]) -> Option<f64> {
     let mut heights: Vec<f64> = deps
         .iter()
         .filter(|d| d.drop.is_none() && d.height > 0.0)
@@ -315,8 +324,88 @@ pub fn coarse_voxels(deps: &[Deposit], voxel_m: f64) -> Option<CoarseVoxels> {
         return None;
     }
     let mid = heights.len() / 2;
-    let height_m = *heights.select_nth_unstable_by(mid, f64::total_cmp).1;
-    (voxel_m > VOXELS_PER_LAYER * height_m).then_some(CoarseVoxels { voxel_m, height_m })
+    Some(*heights.select_nth_unstable_by(mid, f64::total_cmp).1)
+}
+
+/// A voxel run whose first point at risk is judged by its melt pool (humping, Bond) on cells
+/// about as tall as the beads ([`POOL_EDGE_PER_LAYER`]) and not yet 1.4 times as tall, where
+/// [`coarse_voxels`] says more.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoarsePool {
+    pub first: usize,
+    /// What its pool breaks ([`Criteria::breach`]).
+    pub breach: String,
+    pub voxel_m: f64,
+    /// The beads' median height, m.
+    pub height_m: f64,
+}
+
+/// Where the voxel edge is at least the beads' height (to 5 %) a first point at risk judged by
+/// its pool is reported. Measured (docs/PHYSICS.md "A pool judged on cells as tall as the
+/// beads"): where the beads climb past a layer of cells, a stretch of deposits lays a cell or
+/// two across where their beads cover five, or none, and their arcs heat what little there is.
+/// The first points at risk so judged at 1.0-1.11 bead heights (the R 50 dome's 366 at 2 mm and
+/// 126 at 1.86 mm, a torispherical head's 869, the R 100 cylinder's 606) were judged by their
+/// preheats (interpass), further along, at half the edge or on the thin wall (the dome's 616 at
+/// 1 mm, the head's 957 at 1 mm: its flange's 105 pools over the humping limit none there); at
+/// 0.94 the dome's first point at risk was its preheat's (645 at 1.75 mm).
+const POOL_EDGE_PER_LAYER: f64 = 0.95;
+
+impl CoarsePool {
+    /// A warning for the terminal; `key` names the edge (`thermal.voxel_mm`), `run` the run
+    /// ("", or " of the run without dwells"), `dwells` the plan's dwells for pools and all of
+    /// them where a plan was made.
+    pub fn line(&self, key: &str, run: &str, dwells: Option<(usize, usize)>) -> String {
+        let planned = match dwells {
+            Some((pools, all)) if pools > 0 => format!(
+                "; {pools} of the plan's {all} dwells are for pools (humping, Bond), which \
+                 may need none"
+            ),
+            _ => String::new(),
+        };
+        format!(
+            "warning: voxel model: the first point at risk{run}, point {}, is at risk by its \
+             pool ({}), on cells {} mm tall ({key}) against beads {:.2} mm high. Where the \
+             beads climb past a layer of cells, a stretch of deposits lays a cell or two where \
+             their beads cover five, or none, and their arcs heat what little there is: the \
+             pool reads long. On the parts measured such a verdict at 1.0-1.1 bead heights was \
+             the grid's: at half the edge the first point at risk was judged by its preheat, \
+             further along (a torispherical head's 869 → 957, the R 50 dome's 366 → 616). A \
+             run at {key} = {:.2} says whether the pool is the part's{planned} \
+             (docs/PHYSICS.md \"A pool judged on cells as tall as the beads\")",
+            self.first,
+            self.breach,
+            self.voxel_m * 1e3,
+            self.height_m * 1e3,
+            0.5 * self.height_m * 1e3
+        )
+    }
+}
+
+/// The first point at risk of a voxel run on `deps` (edge `voxel_m`), where it is judged by its
+/// pool on cells as tall as the beads or taller, up to where [`coarse_voxels`] warns of the
+/// grid as a whole.
+pub fn coarse_pool(
+    c: &Criteria,
+    points: &[PointResult],
+    deps: &[Deposit],
+    voxel_m: f64,
+) -> Option<CoarsePool> {
+    let height_m = bead_height(deps)?;
+    // Over 1.4 bead heights [`coarse_voxels`] says it, of the pools too.
+    if voxel_m < POOL_EDGE_PER_LAYER * height_m || voxel_m > VOXELS_PER_LAYER * height_m {
+        return None;
+    }
+    let (first, risk) = points
+        .iter()
+        .enumerate()
+        .find_map(|(i, p)| judge(c, p, 0.0).map(|r| (i, r)))?;
+    matches!(risk, Risk::Humping | Risk::Bond).then(|| CoarsePool {
+        first,
+        breach: c.breach(&points[first], risk),
+        voxel_m,
+        height_m,
+    })
 }
 
 /// The voxel model's metal against the beads': `laid_m3` the cells its deposits switched on,
@@ -397,7 +486,9 @@ pub fn metal(result: &RunResult, deps: &[Deposit]) -> Option<Metal> {
 
 #[cfg(test)]
 mod tests {
-    use super::{Metal, coarse_deposits, coarse_voxels, floating, slow_arc};
+    use super::{Metal, coarse_deposits, coarse_pool, coarse_voxels, floating, slow_arc};
+    use crate::pipeline::risk::Criteria;
+    use thermal::run::PointResult;
     use thermal::schedule::{Deposit, helix};
 
     /// Laid metal under half or over twice the beads' is reported, each with its cause; within
@@ -452,6 +543,52 @@ mod tests {
             .collect();
         assert_eq!(coarse_voxels(&drops, 4e-3), None);
         assert_eq!(coarse_voxels(&[], 4e-3), None);
+    }
+
+    /// A first point at risk by its pool is reported on cells as tall as the beads (to 5 %)
+    /// or taller, with the plan's dwells for pools where a plan was made; not on finer cells,
+    /// nor where the first point at risk is its preheat's, however long the pools after it.
+    #[test]
+    fn a_pool_judged_on_cells_as_tall_as_the_beads_is_reported() {
+        let mut beads = helix(0.025, 40, 3, 2e-3, 5e-3, 10e-3, 1700.0);
+        beads.iter_mut().for_each(|d| d.height = 1.86e-3);
+        let c = Criteria {
+            interpass_max_k: Some(473.15),
+            strength_loss_k: None,
+            humping_pool_m: Some(15.7e-3),
+            bond: None,
+            melting_k: 1700.0,
+        };
+        let cool = PointResult {
+            preheat: 400.0,
+            pool_length: 9e-3,
+            ..PointResult::default()
+        };
+        let mut points = vec![cool; beads.len()];
+        points[70].pool_length = 16.5e-3;
+        let found = coarse_pool(&c, &points, &beads, 2e-3).expect("reported");
+        assert_eq!((found.first, found.height_m), (70, 1.86e-3));
+        let line = found.line("thermal.voxel_mm", "", Some((30, 117)));
+        for said in [
+            "point 70, is at risk by its pool (melt pool 16.5 mm over the 15.7 mm humping limit), \
+             on cells 2 mm tall (thermal.voxel_mm) against beads 1.86 mm high",
+            "thermal.voxel_mm = 0.93 says",
+            "30 of the plan's 117 dwells are for pools",
+        ] {
+            assert!(line.contains(said), "{said}: {line}");
+        }
+        assert!(!found.line("k", "", Some((0, 117))).contains("dwells are"));
+        // Cells a twentieth under the beads' height, or half of it: not reported.
+        assert_eq!(coarse_pool(&c, &points, &beads, 1.76e-3), None);
+        assert!(coarse_pool(&c, &points, &beads, 1.77e-3).is_some());
+        assert_eq!(coarse_pool(&c, &points, &beads, 0.93e-3), None);
+        // Over 1.4 bead heights the grid's own warning says it.
+        assert!(coarse_pool(&c, &points, &beads, 2.6e-3).is_some());
+        assert_eq!(coarse_pool(&c, &points, &beads, 2.61e-3), None);
+        // The preheat over its limit first.
+        points[50].preheat = 480.0;
+        assert_eq!(coarse_pool(&c, &points, &beads, 2e-3), None);
+        assert_eq!(coarse_pool(&c, &points, &[], 2e-3), None);
     }
 
     /// A path laid on the plate is not reported; the same path 500 mm up (a log in the
