@@ -25,6 +25,8 @@ impl VoxelModel {
         let len = norm(sub(d.position, prev));
         let (tangent, across, spot) = bead_frame(deps, i);
         let (below, sink) = (self.below[i], self.sink[i]);
+        // A face's share of the bead's surface where the cell beyond it is neither off the
+        // bead's side nor above its top (an end along the path; a column's or a spot's faces).
         let weights =
             FACE_NORMALS.map(|n| (dot(n, across).abs() + dot(n, axis).abs()).min(1.0) as f32);
         // The bead's thickness along its normal (across both the travel and `across`): the
@@ -84,6 +86,16 @@ impl VoxelModel {
                     if inside && s_up <= -sink - eps && s_up > -below - eps {
                         let before = self.cell.len();
                         let temp = self.settings.deposit_temperature;
+                        let weights = match (column, spot) {
+                            (None, false) => surface_weights(
+                                weights,
+                                (across, axis),
+                                (s_across, s_up),
+                                (d.width, sink),
+                                dx,
+                            ),
+                            _ => weights,
+                        };
                         let v = self.add([ix, iy, iz], temp, weights, false);
                         if self.cell.len() > before {
                             self.laid[i].push(v);
@@ -183,6 +195,40 @@ impl VoxelModel {
             self.lay(deps, i);
         }
     }
+}
+
+/// Each face's share of its area that is the bead's surface, for a cell of a bead at
+/// `s_across` off its centre line and `s_up` along the axis from its top (m), by the surface the
+/// cell beyond the face lies outside of: off the bead's side (across it, `width` wide), the
+/// side's normal `across` projected on the face's; above its top (the height window's `sink`),
+/// the axis projected on it; neither (an end along the path), `weights`' share. A staircase of
+/// cell faces on a flat surface of normal n exposes faces of normal e_k at |n·e_k| of its area
+/// each, so these weights sum to the surface's own area. Before, every face took |e·across| +
+/// |e·axis| (at most 1), which is right where the axis is a grid axis (the upright walls of the
+/// measured builds, to the bit), but on a wall leaning 26° counted its sides 1.44 times
+/// (`voxel::tests::a_leaning_walls_sides_expose_their_own_area`; docs/PHYSICS.md "A leaning
+/// wall's faces").
+pub(super) fn surface_weights(
+    weights: [f32; 6],
+    (across, axis): ([f64; 3], [f64; 3]),
+    (s_across, s_up): (f64, f64),
+    (width, sink): (f64, f64),
+    dx: f64,
+) -> [f32; 6] {
+    let eps = 1e-6 * dx;
+    std::array::from_fn(|f| {
+        // Outward: the faces run −x, +x, −y, +y, −z, +z.
+        let sign = if f % 2 == 0 { -1.0 } else { 1.0 };
+        let e = FACE_NORMALS[f].map(|x| sign * x);
+        let (a, u) = (dot(e, across), dot(e, axis));
+        if !across_bead(s_across + dx * a, width, dx) {
+            a.abs() as f32
+        } else if s_up + dx * u > -sink + eps {
+            u.abs() as f32
+        } else {
+            weights[f]
+        }
+    })
 }
 
 /// Whether a voxel centre `s_across` (m) off a bead's centre line lies across the bead of
