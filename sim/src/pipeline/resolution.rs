@@ -346,9 +346,10 @@ pub struct CoarsePool {
 /// two across where their beads cover five, or none, and their arcs heat what little there is.
 /// The first points at risk so judged at 1.0-1.11 bead heights (the R 50 dome's 366 at 2 mm and
 /// 126 at 1.86 mm, a torispherical head's 869, the R 100 cylinder's 606) were judged by their
-/// preheats (interpass), further along, at half the edge or on the thin wall (the dome's 616 at
-/// 1 mm, the head's 957 at 1 mm: its flange's 105 pools over the humping limit none there); at
-/// 0.94 the dome's first point at risk was its preheat's (645 at 1.75 mm).
+/// preheats (interpass), further along, at half the edge or on the thin wall (the dome's 602 at
+/// 1 mm, the head's 957 at 1 mm: its knuckle's 300 pools over the humping limit none there); at
+/// 0.94 the dome's first point at risk was its preheat's (645 at 1.75 mm, before "A leaning
+/// wall's faces").
 const POOL_EDGE_PER_LAYER: f64 = 0.95;
 
 impl CoarsePool {
@@ -370,7 +371,7 @@ impl CoarsePool {
              their beads cover five, or none, and their arcs heat what little there is: the \
              pool reads long. On the parts measured such a verdict at 1.0-1.1 bead heights was \
              the grid's: at half the edge the first point at risk was judged by its preheat, \
-             further along (a torispherical head's 869 → 957, the R 50 dome's 366 → 616). A \
+             further along (a torispherical head's 869 → 957, the R 50 dome's 366 → 602). A \
              run at {key} = {:.2} says whether the pool is the part's{planned} \
              (docs/PHYSICS.md \"A pool judged on cells as tall as the beads\")",
             self.first,
