@@ -345,7 +345,8 @@ pub struct CoarsePool {
 /// beads"): where the beads climb past a layer of cells, a stretch of deposits lays a cell or
 /// two across where their beads cover five, or none, and their arcs heat what little there is.
 /// The first points at risk so judged at 1.0-1.11 bead heights (the R 50 dome's 366 at 2 mm and
-/// 126 at 1.86 mm, a torispherical head's 869, the R 100 cylinder's 606) were judged by their
+/// 126 at 1.86 mm, the latter before "A leaning wall's faces", a torispherical head's 869, the
+/// R 100 cylinder's 606) were judged by their
 /// preheats (interpass), further along, at half the edge or on the thin wall (the dome's 602 at
 /// 1 mm, the head's 957 at 1 mm: its knuckle's 300 pools over the humping limit none there); at
 /// 0.94 the dome's first point at risk was its preheat's (645 at 1.75 mm, before "A leaning
