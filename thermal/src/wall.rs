@@ -119,7 +119,10 @@ fn layout(deps: &[Deposit], min_node: f64) -> Layout {
         let w = acc.iter().map(|a| deps[a.0].width * a.1).sum::<f64>() / len;
         let h = acc.iter().map(|a| deps[a.0].height * a.1).sum::<f64>() / len;
         let c: [f64; 3] = std::array::from_fn(|k| {
-            acc.iter().map(|&(d, _)| deps[d].position[k]).sum::<f64>() / acc.len() as f64
+            acc.iter()
+                .map(|&(d, seg)| 0.5 * (deps[d].position[k] + segment_start(deps, d)[k]) * seg)
+                .sum::<f64>()
+                / len
         });
         l.first.push(acc[0].0);
         l.length.push(len);
