@@ -998,8 +998,8 @@ mod tests {
     /// middle. At the mean of its deposits' points (their segments' ends) a node of one 4.2 mm
     /// deposit stood 2.1 mm nearer the arc than its metal, and the preheat read at a point
     /// took metal nearer the arc: an upright R 80 wall of 4.2 mm deposits read 10.5 K over
-    /// the voxel model on its second revolution, 6.5 K since (docs/PHYSICS.md "Resolution
-    /// along the bead").
+    /// the voxel model on revolution 1, 6.5 K since (docs/PHYSICS.md "A node at its stretch's
+    /// middle").
     #[test]
     fn a_node_stands_at_the_middle_of_its_stretch() {
         // One deposit a node: deposit k's segment runs from x = 4(k - 1) to 4k mm.

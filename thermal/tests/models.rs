@@ -113,9 +113,9 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     // lies on revolution 0, which lies on the plate, whose cells the models cut differently
     // (the thin wall's merged 5 mm cells, 2 mm voxels). Measured 5.1 % there (2026-12-02, a
     // thin-wall node at its stretch's middle; 2.6 % on revolution 2, 1.6 % on 3), 7.4 % before
-    // (2026-11-29; the thin wall 4.2 K warmer, 3.9 % on revolution 2, 2.5 % on 3, since a voxel
-    // run takes in no more heat than its arcs: 4.1 K, 3.8 and 2.4 % before); 4.9 % before, while the voxel
-    // model's first deposit laid a slab of 20 cells (2 now; the next deposits 5–6) that warmed
+    // (2026-11-29; the thin wall 4.2 K warmer, 3.9 % on revolution 2, 2.5 % on 3, since a
+    // voxel run takes in no more heat than its arcs: 4.1 K, 3.8 and 2.4 % before); 4.9 %
+    // before, while the voxel model's first deposit laid a slab of 20 cells (2 now; the next deposits 5–6) that warmed
     // the start of revolution 1 (its first point read 104 °C between neighbours at 49–58 °C).
     let mut worst = 0.0f64;
     for k in 0..layers {
@@ -295,19 +295,26 @@ fn nodes_of_five_deposits_read_as_smoothly_as_a_node_a_deposit() {
 }
 
 /// An upright wall (a pressure-vessel head's flange: R 80, 5 mm beads 1.87 mm high, 1 700 W at
-/// 10 mm/s), eight revolutions on both models: mean preheat per revolution, the thin wall with
-/// `a_revolution` deposits a revolution and nodes at least `min_node` long, the voxel model
-/// on 2 mm cells with 120 a revolution.
-fn flange(a_revolution: usize, min_node: f64) -> (Vec<f64>, Vec<f64>) {
-    let (r, revolutions) = (0.08, 8);
-    let schedule = |n| helix(r, n, revolutions, 1.87e-3, 5e-3, 10e-3, 1700.0);
-    let deps = schedule(a_revolution);
-    let ws = wall_settings(min_node, false);
+/// 10 mm/s), eight revolutions of `a_revolution` deposits each.
+fn flange(a_revolution: usize) -> Vec<Deposit> {
+    helix(0.08, a_revolution, 8, 1.87e-3, 5e-3, 10e-3, 1700.0)
+}
+
+/// The thin wall's mean preheat per revolution on `flange(a_revolution)`, nodes at least
+/// `min_node` long.
+fn flange_on_the_thin_wall(a_revolution: usize, min_node: f64) -> Vec<f64> {
+    let (deps, ws) = (flange(a_revolution), wall_settings(min_node, false));
     let wall = WallModel::build(&deps, &ws)
         .unwrap()
         .run(&deps, &ws, 0.0)
         .unwrap();
-    let coarse = schedule(120);
+    let preheats: Vec<f64> = wall.points.iter().map(|p| p.preheat).collect();
+    per_revolution(&preheats, a_revolution)
+}
+
+/// The voxel model's mean preheat per revolution on `flange(120)`, 2 mm cells.
+fn flange_on_voxels() -> Vec<f64> {
+    let deps = flange(120);
     let vs = VoxelSettings {
         material: Material::g3si(),
         surroundings: surroundings(),
@@ -326,12 +333,9 @@ fn flange(a_revolution: usize, min_node: f64) -> (Vec<f64>, Vec<f64>) {
         coarse_plate: false,
         device: Default::default(),
     };
-    let vox = VoxelModel::new(&coarse, &vs).unwrap().run(&coarse).unwrap();
-    let preheats = |p: &[PointResult]| p.iter().map(|p| p.preheat).collect::<Vec<_>>();
-    (
-        per_revolution(&preheats(&wall.points), a_revolution),
-        per_revolution(&preheats(&vox.points), 120),
-    )
+    let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps).unwrap();
+    let preheats: Vec<f64> = vox.points.iter().map(|p| p.preheat).collect();
+    per_revolution(&preheats, 120)
 }
 
 /// The torispherical head's upright flange read 7 % of the rise colder on the voxel model than
@@ -344,12 +348,14 @@ fn flange(a_revolution: usize, min_node: f64) -> (Vec<f64>, Vec<f64>) {
 /// the voxel model's rise, revolutions 1-7.
 #[test]
 fn the_thin_wall_meets_the_voxel_model_on_an_upright_wall_as_its_nodes_shorten() {
-    let rise = |(wall, vox): (Vec<f64>, Vec<f64>)| -> Vec<f64> {
+    let vox = flange_on_voxels();
+    let rise = |wall: Vec<f64>| -> Vec<f64> {
         (1..8)
             .map(|k| (wall[k] - vox[k]) / (vox[k] - 293.15))
             .collect()
     };
-    let (long, short) = (rise(flange(120, 3e-3)), rise(flange(480, 1e-3)));
+    let long = rise(flange_on_the_thin_wall(120, 3e-3));
+    let short = rise(flange_on_the_thin_wall(480, 1e-3));
     eprintln!("4.2 mm nodes, share of the rise: {long:.3?}\n1.05 mm nodes: {short:.3?}");
     let worst = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     // Measured 2026-12-02: 1.05 mm nodes within 0.8 % of the rise; 4.2 mm nodes at most

@@ -234,7 +234,7 @@ impl Coarse {
         format!(
             "warning: thin wall: {} of {} deposits are longer than {:.1} mm (twice \
              [thermal] node_mm), up to {:.1} mm; each is one node along the bead, and the \
-             preheat depends on their length (R 200's lowest revolutions read 36-40 K hot \
+             preheat depends on their length (R 200's lowest revolutions read 22-26 K hot \
              with 10.5 mm deposits, docs/PHYSICS.md \"Resolution along the bead\"): more \
              points ([planner] n_points) refine it",
             self.over,
