@@ -49,6 +49,28 @@ fn wall_settings(min_node: f64, watch_metal: bool) -> WallSettings {
     }
 }
 
+/// The voxel model on G3Si, 2 mm cells, the plate uncut.
+fn voxel_settings(watch_metal: bool) -> VoxelSettings {
+    VoxelSettings {
+        material: Material::g3si(),
+        surroundings: surroundings(),
+        plate: plate(),
+        size: 2e-3,
+        deposit_temperature: 1823.15,
+        lead: 10e-3,
+        hot_threshold: 873.15,
+        snapshot_times: vec![],
+        traces: vec![],
+        watch_metal,
+        courant: 0.9,
+        probes: vec![],
+        probe_every: 0.0,
+        source: thermal::voxel::HeatSource::DoubleEllipsoid,
+        coarse_plate: false,
+        device: Default::default(),
+    }
+}
+
 /// Mean preheat per revolution.
 fn per_revolution(pre: &[f64], n: usize) -> Vec<f64> {
     pre.chunks(n)
@@ -61,30 +83,12 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     let (n, layers) = (120, 10);
     // 6 mm bead: three 2 mm voxels, so both models lay the same metal.
     let deps = helix(0.06, n, layers, 2e-3, 6e-3, 10e-3, 0.85 * 2000.0);
-    let material = Material::g3si();
     let ws = wall_settings(3e-3, true);
     let wall = WallModel::build(&deps, &ws)
         .unwrap()
         .run(&deps, &ws, 0.0)
         .unwrap();
-    let vs = VoxelSettings {
-        material,
-        surroundings: surroundings(),
-        plate: plate(),
-        size: 2e-3,
-        deposit_temperature: 1823.15,
-        lead: 10e-3,
-        hot_threshold: 873.15,
-        snapshot_times: vec![],
-        traces: vec![],
-        watch_metal: true,
-        courant: 0.9,
-        probes: vec![],
-        probe_every: 0.0,
-        source: thermal::voxel::HeatSource::DoubleEllipsoid,
-        coarse_plate: false,
-        device: Default::default(),
-    };
+    let vs = voxel_settings(true);
     let t = std::time::Instant::now();
     let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps).unwrap();
     let Cells::Voxel {
@@ -315,24 +319,7 @@ fn flange_on_the_thin_wall(a_revolution: usize, min_node: f64) -> Vec<f64> {
 /// The voxel model's mean preheat per revolution on `flange(120)`, 2 mm cells.
 fn flange_on_voxels() -> Vec<f64> {
     let deps = flange(120);
-    let vs = VoxelSettings {
-        material: Material::g3si(),
-        surroundings: surroundings(),
-        plate: plate(),
-        size: 2e-3,
-        deposit_temperature: 1823.15,
-        lead: 10e-3,
-        hot_threshold: 873.15,
-        snapshot_times: vec![],
-        traces: vec![],
-        watch_metal: false,
-        courant: 0.9,
-        probes: vec![],
-        probe_every: 0.0,
-        source: thermal::voxel::HeatSource::DoubleEllipsoid,
-        coarse_plate: false,
-        device: Default::default(),
-    };
+    let vs = voxel_settings(false);
     let vox = VoxelModel::new(&deps, &vs).unwrap().run(&deps).unwrap();
     let preheats: Vec<f64> = vox.points.iter().map(|p| p.preheat).collect();
     per_revolution(&preheats, 120)
