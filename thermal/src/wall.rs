@@ -73,7 +73,9 @@ fn merged() -> bool {
 
 struct Layout {
     node_of: Vec<usize>,
-    /// Per wall node: first deposit, length, width, height, centre.
+    /// Per wall node: first deposit, length, width, height, centre (its stretch of bead's
+    /// middle, where its one temperature stands: not its deposits' points, which end their
+    /// segments).
     first: Vec<usize>,
     length: Vec<f64>,
     width: Vec<f64>,

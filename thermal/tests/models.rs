@@ -119,8 +119,9 @@ fn voxel_and_thin_wall_agree_on_a_ten_layer_cylinder() {
     // thin-wall node at its stretch's middle; 2.6 % on revolution 2, 1.6 % on 3), 7.4 % before
     // (2026-11-29; the thin wall 4.2 K warmer, 3.9 % on revolution 2, 2.5 % on 3, since a
     // voxel run takes in no more heat than its arcs: 4.1 K, 3.8 and 2.4 % before); 4.9 %
-    // before, while the voxel model's first deposit laid a slab of 20 cells (2 now; the next deposits 5–6) that warmed
-    // the start of revolution 1 (its first point read 104 °C between neighbours at 49–58 °C).
+    // before, while the voxel model's first deposit laid a slab of 20 cells (2 now; the next
+    // deposits 5–6) that warmed the start of revolution 1 (its first point read 104 °C between
+    // neighbours at 49–58 °C).
     let mut worst = 0.0f64;
     for k in 0..layers {
         let rel = (fe[k] - vx[k]) / (vx[k] - 293.15);
